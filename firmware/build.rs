@@ -1,0 +1,140 @@
+//! Compiles the user's GSI configuration into the firmware's message
+//! layouts (`$OUT_DIR/layout.rs`, included by `src/layout.rs`).
+//!
+//! Environment:
+//! - `RRI_GSI_DIR`: the GSI folder (Settings.xml + one folder per device);
+//!   relative paths are taken from the workspace root. Default: the manual's
+//!   example kept in `firmware/gsi/GSI`.
+//! - `RRI_DEVICE`: which CDP client of Settings.xml; optional when there is
+//!   only one.
+//! - `RRI_REAL_DECIMALS`, `RRI_TIME_DECIMALS`: decimals written for reals
+//!   and times in sent messages (0..=6, default 3; M5).
+//!
+//! Every problem is reported as `file:line:col: error[rule]: …` and all of
+//! them at once; the G6 quirks of the manual's example build with a warning.
+
+use std::path::{Path, PathBuf};
+
+fn main() {
+    let manifest = PathBuf::from(env("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+    let workspace = manifest.parent().unwrap_or(&manifest).to_path_buf();
+    mcu_link_args(&workspace);
+
+    for var in [
+        "RRI_GSI_DIR",
+        "RRI_DEVICE",
+        "RRI_REAL_DECIMALS",
+        "RRI_TIME_DECIMALS",
+    ] {
+        println!("cargo:rerun-if-env-changed={var}");
+    }
+    let gsi_dir = match env("RRI_GSI_DIR") {
+        Some(dir) if Path::new(&dir).is_absolute() => PathBuf::from(dir),
+        Some(dir) => workspace.join(dir),
+        None => manifest.join("gsi").join("GSI"),
+    };
+    let device = env("RRI_DEVICE");
+    let mut errors = Vec::new();
+    let real_decimals = decimals("RRI_REAL_DECIMALS", &mut errors);
+    let time_decimals = decimals("RRI_TIME_DECIMALS", &mut errors);
+
+    println!("cargo:rerun-if-changed={}", gsi_dir.display());
+    let loaded = gsi_config::load(&gsi_dir, device.as_deref());
+    let files = match &loaded {
+        Ok(l) => &l.files,
+        Err(f) => &f.files,
+    };
+    for f in files {
+        println!("cargo:rerun-if-changed={}", f.display());
+    }
+    let loaded = match loaded {
+        Ok(l) => l,
+        Err(failed) => {
+            for d in &failed.diagnostics {
+                report(d);
+            }
+            fail(&format!(
+                "the GSI configuration in {} has errors (see above)",
+                gsi_dir.display()
+            ));
+        }
+    };
+    for w in &loaded.warnings {
+        report(w);
+    }
+    if !errors.is_empty() {
+        for e in &errors {
+            println!("cargo::error={e}");
+        }
+        fail("bad build settings");
+    }
+
+    let opts = gsi_codegen::Options {
+        crate_path: "crate".into(),
+        real_decimals,
+        time_decimals,
+    };
+    let source = match gsi_codegen::generate(&loaded.device, &opts) {
+        Ok(s) => s,
+        Err(diags) => {
+            for d in &diags {
+                report(d);
+            }
+            fail("the message layouts cannot be generated (see above)");
+        }
+    };
+    let out = PathBuf::from(env("OUT_DIR").expect("cargo sets OUT_DIR")).join("layout.rs");
+    if let Err(e) = std::fs::write(&out, source) {
+        fail(&format!("cannot write {}: {e}", out.display()));
+    }
+}
+
+fn env(name: &str) -> Option<String> {
+    std::env::var(name).ok().filter(|v| !v.trim().is_empty())
+}
+
+fn decimals(var: &str, errors: &mut Vec<String>) -> u8 {
+    match env(var) {
+        None => 3,
+        Some(v) => match v.trim().parse::<u8>() {
+            Ok(n) if n <= gsi_codegen::MAX_DECIMALS => n,
+            _ => {
+                errors.push(format!(
+                    "{var}={v}: must be a number of decimals 0..={}",
+                    gsi_codegen::MAX_DECIMALS
+                ));
+                3
+            }
+        },
+    }
+}
+
+/// Errors stop the build (`cargo::error`), warnings show in cargo's output
+/// (`cargo::warning`); both keep the `file:line:col: kind[rule]` form.
+fn report(d: &gsi_config::Diagnostic) {
+    if d.is_error() {
+        println!("cargo::error={d}");
+    } else {
+        println!("cargo::warning={d}");
+    }
+}
+
+fn fail(summary: &str) -> ! {
+    eprintln!("{summary}");
+    std::process::exit(1);
+}
+
+/// Link arguments for the firmware's binaries on the MCU only: the host
+/// build (tests) must not see them.
+fn mcu_link_args(workspace: &Path) {
+    if env("CARGO_CFG_TARGET_OS").as_deref() == Some("none") {
+        println!("cargo:rustc-link-search={}", workspace.display());
+        println!(
+            "cargo:rerun-if-changed={}",
+            workspace.join("memory.x").display()
+        );
+        println!("cargo:rustc-link-arg-bins=--nmagic");
+        println!("cargo:rustc-link-arg-bins=-Tlink.x");
+        println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+    }
+}

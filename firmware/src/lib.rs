@@ -1,0 +1,20 @@
+//! # rri-firmware: an ABB Robot Reference Interface sensor, `no_std`
+//!
+//! The protocol and cycle logic of the sensor box, free of any board: it
+//! builds for the host (tested with plain `cargo test`) and for
+//! `thumbv7em-none-eabihf`. Boards (in `hal-board`) supply only the network
+//! driver, the clock and their pins.
+//!
+//! - [`layout`]: the message layouts generated at build time from the user's
+//!   GSI folder (`RRI_GSI_DIR`, `RRI_DEVICE`; see the README).
+//! - [`value`]: the RRI value types (exact time, frame, joints, strings).
+//! - [`schema`]: the vocabulary the generated layouts are written in.
+//!
+//! Rules: no heap, no recursion, no panics on any input; every buffer is
+//! sized by a generated constant.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+
+pub mod layout;
+pub mod schema;
+pub mod value;
