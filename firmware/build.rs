@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 fn main() {
     let manifest = PathBuf::from(env("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
     let workspace = manifest.parent().unwrap_or(&manifest).to_path_buf();
-    mcu_link_args(&workspace);
+    mcu_link_args(&workspace, &manifest);
 
     for var in [
         "RRI_GSI_DIR",
@@ -125,9 +125,11 @@ fn fail(summary: &str) -> ! {
 }
 
 /// Link arguments for the firmware's binaries on the MCU only: the host
-/// build (tests) must not see them.
-fn mcu_link_args(workspace: &Path) {
-    if env("CARGO_CFG_TARGET_OS").as_deref() == Some("none") {
+/// build (tests) must not see them. Board binaries live in `src/bin/`;
+/// cargo refuses `rustc-link-arg-bins` for a package without any.
+fn mcu_link_args(workspace: &Path, manifest: &Path) {
+    let has_bins = manifest.join("src").join("bin").is_dir();
+    if env("CARGO_CFG_TARGET_OS").as_deref() == Some("none") && has_bins {
         println!("cargo:rustc-link-search={}", workspace.display());
         println!(
             "cargo:rerun-if-changed={}",

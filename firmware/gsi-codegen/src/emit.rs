@@ -52,7 +52,7 @@ impl Emitter {
     /// literal within 60 columns, the line within 100), else one item a line.
     pub fn array(&mut self, head: &str, items: &[String]) {
         let literal = format!("[{}]", items.join(", "));
-        if literal.len() <= 60 && self.indent * 4 + head.len() + literal.len() + 1 <= 100 {
+        if literal.len() <= 60 && self.indent * 4 + head.len() + literal.len() < 100 {
             self.line(format!("{head}{literal};"));
         } else {
             self.line(format!("{head}["));

@@ -287,9 +287,30 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
     e.line(format!(
         "use {k}::schema::{{ChannelProtocol, ControllerPort, Direction, Message}};"
     ));
-    e.line(format!(
-        "use {k}::value::{{Frame, Joints, RriString, Time}};"
-    ));
+    let used = |t: SimpleType| {
+        let fields = device
+            .records
+            .iter()
+            .flat_map(|r| r.fields.iter().map(|f| f.ty));
+        fields
+            .chain(device.properties.iter().map(|p| p.ty))
+            .any(|ty| ty == TypeRef::Simple(t))
+    };
+    let values: Vec<&str> = [
+        (SimpleType::Frame, "Frame"),
+        (SimpleType::Joints, "Joints"),
+        (SimpleType::String, "RriString"),
+        (SimpleType::Time, "Time"),
+    ]
+    .into_iter()
+    .filter(|(t, _)| used(*t))
+    .map(|(_, name)| name)
+    .collect();
+    match values.as_slice() {
+        [] => {}
+        [one] => e.line(format!("use {k}::value::{one};")),
+        many => e.line(format!("use {k}::value::{{{}}};", many.join(", "))),
+    }
     e.blank();
     emit_settings(&mut e, device, format);
     for (i, en) in device.enums.iter().enumerate() {
@@ -518,12 +539,14 @@ fn emit_message(
         type_doc(d, p.ty, p.size, p.link),
         p.flag.as_str()
     ));
-    e.doc("");
-    e.doc(format!(
-        "On the wire: `<{} Id=\"…\" Ts=\"…\">…</{}>` (M1).",
-        p.wire(),
-        p.wire()
-    ));
+    if p.flag != Flag::None {
+        e.doc("");
+        e.doc(format!(
+            "On the wire: `<{} Id=\"…\" Ts=\"…\">…</{}>` (M1).",
+            p.wire(),
+            p.wire()
+        ));
+    }
     e.line("#[derive(Clone, Copy, Debug, PartialEq, Eq)]");
     e.line(format!("pub struct {name};"));
     e.blank();

@@ -59,7 +59,7 @@ pub fn read(root: &Element<'_>, sink: &mut Sink<'_>) -> Configuration {
         for el in &enums.children {
             if expect(el, "Enum", "Enums", sink) {
                 if let Some(e) = read_enum(el, sink) {
-                    if declare(&cfg, &e.name, e.pos, sink) {
+                    if declare(&cfg, &e.name, name_pos(el), sink) {
                         cfg.enums.push(e);
                     }
                 }
@@ -78,7 +78,7 @@ pub fn read(root: &Element<'_>, sink: &mut Sink<'_>) -> Configuration {
                 continue;
             };
             let alias = read_alias(el, sink);
-            if declare(&cfg, &name, el.pos, sink) {
+            if declare(&cfg, &name, name_pos(el), sink) {
                 cfg.records.push(Record {
                     name,
                     alias,
@@ -183,6 +183,11 @@ fn expect(el: &Element<'_>, wanted: &str, parent: &str, sink: &mut Sink<'_>) -> 
         ),
     );
     false
+}
+
+/// Where the `Name` attribute is (the element when it has none).
+fn name_pos(el: &Element<'_>) -> Pos {
+    el.attr("Name").map_or(el.pos, |a| a.pos)
 }
 
 fn required_name(el: &Element<'_>, what: &str, sink: &mut Sink<'_>) -> Option<String> {

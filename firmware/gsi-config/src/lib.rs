@@ -137,7 +137,7 @@ pub fn load(gsi_dir: &Path, device: Option<&str>) -> Result<Loaded, Failed> {
             Rule::G3,
             &mut diags,
             &mut files,
-            |root, sink| configuration::read(root, sink),
+            configuration::read,
         );
         if let (Some(d), Some(c)) = (description, config) {
             if let (Some(name), Some(network), Some(channel), Some(supervision)) =
