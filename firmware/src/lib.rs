@@ -15,6 +15,7 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
+pub mod codec;
 pub mod layout;
 pub mod schema;
 pub mod value;

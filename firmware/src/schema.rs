@@ -70,3 +70,103 @@ pub trait Message {
     /// declaration and any number notation included); longer is rejected.
     const MAX_RECEIVE_LEN: usize;
 }
+
+use crate::value::{Frame, Joints, RriString, Time};
+
+/// A generated enum, seen by the codec without knowing its type.
+pub trait WireEnum {
+    /// The text that travels in messages.
+    fn wire_text(&self) -> &'static str;
+    /// Sets the member whose wire text is exactly `text`; `false` (and no
+    /// change) when there is none.
+    fn set_from_wire(&mut self, text: &[u8]) -> bool;
+}
+
+/// Mutable access to one field's value, for the decoder.
+pub enum FieldMut<'a> {
+    Bool(&'a mut bool),
+    Real(&'a mut f32),
+    Time(&'a mut Time),
+    Str(&'a mut RriString),
+    Enum(&'a mut dyn WireEnum),
+    Frame(&'a mut Frame),
+    Joints(&'a mut Joints),
+    Bools(&'a mut [bool]),
+    Reals(&'a mut [f32]),
+    Times(&'a mut [Time]),
+    Strs(&'a mut [RriString]),
+}
+
+/// Read access to one field's value, for the encoder.
+pub enum FieldRef<'a> {
+    Bool(bool),
+    Real(f32),
+    Time(Time),
+    Str(&'a RriString),
+    Enum(&'static str),
+    Frame(&'a Frame),
+    Joints(&'a Joints),
+    Bools(&'a [bool]),
+    Reals(&'a [f32]),
+    Times(&'a [Time]),
+    Strs(&'a [RriString]),
+}
+
+/// The fixed bytes of one field on the wire, precomputed by the build
+/// script: `<EStr>` … `</EStr>` for a text value (M3), `<P_act` … `/>` for
+/// attributes (M4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FieldWire {
+    /// Element name (alias, else name).
+    pub name: &'static [u8],
+    pub open: &'static [u8],
+    pub close: &'static [u8],
+}
+
+impl FieldWire {
+    pub const fn new(name: &'static [u8], open: &'static [u8], close: &'static [u8]) -> Self {
+        FieldWire { name, open, close }
+    }
+}
+
+/// A generated record: its fields by index, in Configuration order.
+pub trait Record {
+    /// Wire pieces of every field, in order (at most 64 fields).
+    const FIELDS: &'static [FieldWire];
+    /// The index of the field whose element name is `name`.
+    fn field_index(name: &[u8]) -> Option<usize>;
+    fn field(&self, index: usize) -> Option<FieldRef<'_>>;
+    fn field_mut(&mut self, index: usize) -> Option<FieldMut<'_>>;
+}
+
+/// How a message's body is laid out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Body {
+    /// A record: one child element per field (M2).
+    Record,
+    /// A property of a simple type: the value is the root element's text,
+    /// or its attributes for frame, joints and arrays (next to `Id`, `Ts`).
+    Value,
+}
+
+/// The codec's view of a generated message type.
+pub trait MessageCodec: Message {
+    const BODY: Body;
+    /// `<Root Id="`: the fixed start of every encoded message.
+    const OPEN: &'static [u8];
+    /// `</Root>`.
+    const CLOSE: &'static [u8];
+    /// For [`Body::Record`], the record's fields; for [`Body::Value`], one
+    /// entry whose `name` is empty.
+    const FIELDS: &'static [FieldWire];
+    fn field_index(name: &[u8]) -> Option<usize>;
+    fn field(data: &Self::Data, index: usize) -> Option<FieldRef<'_>>;
+    fn field_mut(data: &mut Self::Data, index: usize) -> Option<FieldMut<'_>>;
+}
+
+/// How numbers are written in sent messages (M5), from the build settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Format {
+    pub real_decimals: u8,
+    pub time_decimals: u8,
+}

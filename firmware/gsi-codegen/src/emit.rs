@@ -63,6 +63,72 @@ impl Emitter {
         }
     }
 
+    /// `use path::{a, b, …};` filled to 100 columns the way rustfmt does.
+    pub fn use_list(&mut self, path: &str, items: &[&str]) {
+        match items {
+            [] => {}
+            [one] => self.line(format!("use {path}::{one};")),
+            many => {
+                let one_line = format!("use {path}::{{{}}};", many.join(", "));
+                if one_line.len() <= 100 {
+                    self.line(one_line);
+                    return;
+                }
+                self.line(format!("use {path}::{{"));
+                let mut line = String::new();
+                for item in many {
+                    let piece = format!("{item},");
+                    if !line.is_empty() && 4 + line.len() + 1 + piece.len() > 100 {
+                        self.line(format!("    {line}"));
+                        line.clear();
+                    }
+                    if !line.is_empty() {
+                        line.push(' ');
+                    }
+                    line.push_str(&piece);
+                }
+                self.line(format!("    {line}"));
+                self.line("};");
+            }
+        }
+    }
+
+    /// `prefix f(a, b, c)suffix` on one line when rustfmt keeps it there,
+    /// else one argument a line.
+    pub fn call(&mut self, prefix: &str, f: &str, args: &[String], suffix: &str) {
+        let joined = args.join(", ");
+        let one = format!("{prefix}{f}({joined}){suffix}");
+        if joined.len() <= 60 && self.indent * 4 + one.len() <= 100 {
+            self.line(one);
+        } else {
+            self.line(format!("{prefix}{f}("));
+            for a in args {
+                self.line(format!("{prefix}    {a},"));
+            }
+            self.line(format!("{prefix}){suffix}"));
+        }
+    }
+
+    /// `head[f(..), f(..)];`: an array of calls, one line when short
+    /// (rustfmt keeps a literal of up to 60 columns together), else one
+    /// call a line, each laid out by [`Emitter::call`].
+    pub fn call_array(&mut self, head: &str, f: &str, calls: &[Vec<String>]) {
+        let items: Vec<String> = calls
+            .iter()
+            .map(|args| format!("{f}({})", args.join(", ")))
+            .collect();
+        let literal = format!("[{}]", items.join(", "));
+        if literal.len() <= 60 && self.indent * 4 + head.len() + literal.len() < 100 {
+            self.line(format!("{head}{literal};"));
+            return;
+        }
+        self.line(format!("{head}["));
+        for args in calls {
+            self.call("    ", f, args, ",");
+        }
+        self.line("];");
+    }
+
     pub fn blank(&mut self) {
         if !self.out.ends_with("\n\n") && !self.out.ends_with("{\n") && !self.out.is_empty() {
             self.out.push('\n');

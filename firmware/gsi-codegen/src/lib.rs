@@ -284,9 +284,22 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
     ));
     e.line("// Do not edit: change Description.xml / Configuration.xml and rebuild.");
     e.blank();
-    e.line(format!(
-        "use {k}::schema::{{ChannelProtocol, ControllerPort, Direction, Message}};"
-    ));
+    let mut schema = vec!["Body", "ChannelProtocol", "ControllerPort", "Direction"];
+    schema.extend([
+        "FieldMut",
+        "FieldRef",
+        "FieldWire",
+        "Format",
+        "Message",
+        "MessageCodec",
+    ]);
+    if !device.records.is_empty() {
+        schema.push("Record");
+    }
+    if !device.enums.is_empty() {
+        schema.push("WireEnum");
+    }
+    e.use_list(&format!("{k}::schema"), &schema);
     let used = |t: SimpleType| {
         let fields = device
             .records
@@ -306,11 +319,7 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
     .filter(|(t, _)| used(*t))
     .map(|(_, name)| name)
     .collect();
-    match values.as_slice() {
-        [] => {}
-        [one] => e.line(format!("use {k}::value::{one};")),
-        many => e.line(format!("use {k}::value::{{{}}};", many.join(", "))),
-    }
+    e.use_list(&format!("{k}::value"), &values);
     e.blank();
     emit_settings(&mut e, device, format);
     for (i, en) in device.enums.iter().enumerate() {
@@ -395,6 +404,11 @@ fn emit_settings(e: &mut Emitter, d: &Device, f: sizes::Format) {
         "pub const TIME_DECIMALS: u8 = {};",
         f.time_decimals
     ));
+    e.doc("M5: how sent messages write numbers ([`REAL_DECIMALS`], [`TIME_DECIMALS`]).");
+    e.open("pub const FORMAT: Format = Format");
+    e.line("real_decimals: REAL_DECIMALS,");
+    e.line("time_decimals: TIME_DECIMALS,");
+    e.close(";");
 }
 
 fn emit_enum(e: &mut Emitter, id: &Idents, i: usize, en: &gsi_config::Enum) {
@@ -456,6 +470,22 @@ fn emit_enum(e: &mut Emitter, id: &Idents, i: usize, en: &gsi_config::Enum) {
     e.close("");
     e.close("");
     e.close("");
+    e.blank();
+    e.open(format!("impl WireEnum for {name}"));
+    e.open("fn wire_text(&self) -> &'static str");
+    e.line("self.wire()");
+    e.close("");
+    e.blank();
+    e.open("fn set_from_wire(&mut self, text: &[u8]) -> bool");
+    e.open("match Self::from_wire(text)");
+    e.open("Some(member) =>");
+    e.line("*self = member;");
+    e.line("true");
+    e.close("");
+    e.line("None => false,");
+    e.close("");
+    e.close("");
+    e.close("");
 }
 
 fn emit_record(e: &mut Emitter, d: &Device, id: &Idents, i: usize, r: &gsi_config::Record) {
@@ -507,6 +537,96 @@ fn emit_record(e: &mut Emitter, d: &Device, id: &Idents, i: usize, r: &gsi_confi
     e.line("Self::DEFAULT");
     e.close("");
     e.close("");
+    e.blank();
+    e.open(format!("impl Record for {name}"));
+    let items: Vec<Vec<String>> = r
+        .fields
+        .iter()
+        .map(|f| {
+            let w = f.wire();
+            let (open, close) = if sizes::attribute_names(f.ty, f.size).is_some() {
+                (format!("<{w}"), "/>".to_string())
+            } else {
+                (format!("<{w}>"), format!("</{w}>"))
+            };
+            vec![
+                emit::bytes_lit(w),
+                emit::bytes_lit(&open),
+                emit::bytes_lit(&close),
+            ]
+        })
+        .collect();
+    e.call_array(
+        "const FIELDS: &'static [FieldWire] = &",
+        "FieldWire::new",
+        &items,
+    );
+    e.blank();
+    e.open("fn field_index(name: &[u8]) -> Option<usize>");
+    e.open("match name");
+    for (j, f) in r.fields.iter().enumerate() {
+        e.line(format!("{} => Some({j}),", emit::bytes_lit(f.wire())));
+    }
+    e.line("_ => None,");
+    e.close("");
+    e.close("");
+    e.blank();
+    e.open("fn field(&self, index: usize) -> Option<FieldRef<'_>>");
+    e.open("Some(match index");
+    for (j, f) in r.fields.iter().enumerate() {
+        let v = format!("self.{}", id.fields[i][j]);
+        e.line(format!("{j} => {},", field_ref(f.ty, f.size, &v)));
+    }
+    e.line("_ => return None,");
+    e.close(")");
+    e.close("");
+    e.blank();
+    e.open("fn field_mut(&mut self, index: usize) -> Option<FieldMut<'_>>");
+    e.open("Some(match index");
+    for (j, f) in r.fields.iter().enumerate() {
+        let v = format!("&mut self.{}", id.fields[i][j]);
+        e.line(format!("{j} => {},", field_mut(f.ty, f.size, &v)));
+    }
+    e.line("_ => return None,");
+    e.close(")");
+    e.close("");
+    e.close("");
+}
+
+/// The `FieldRef` constructor for a value; `v` is a place expression.
+fn field_ref(ty: TypeRef, size: Option<u16>, v: &str) -> String {
+    let variant = variant(ty, size);
+    match (ty, size) {
+        (_, Some(_)) => format!("FieldRef::{variant}(&{v})"),
+        (TypeRef::Enum(_), None) => format!("FieldRef::Enum({v}.wire())"),
+        (TypeRef::Simple(SimpleType::Bool | SimpleType::Real | SimpleType::Time), None) => {
+            format!("FieldRef::{variant}({v})")
+        }
+        _ => format!("FieldRef::{variant}(&{v})"),
+    }
+}
+
+/// The `FieldMut` constructor for a value; `v` is a `&mut` expression.
+fn field_mut(ty: TypeRef, size: Option<u16>, v: &str) -> String {
+    format!("FieldMut::{}({v})", variant(ty, size))
+}
+
+fn variant(ty: TypeRef, size: Option<u16>) -> &'static str {
+    match (ty, size) {
+        (TypeRef::Simple(SimpleType::Bool), None) => "Bool",
+        (TypeRef::Simple(SimpleType::Real), None) => "Real",
+        (TypeRef::Simple(SimpleType::Time), None) => "Time",
+        (TypeRef::Simple(SimpleType::String), None) => "Str",
+        (TypeRef::Simple(SimpleType::Frame), _) => "Frame",
+        (TypeRef::Simple(SimpleType::Joints), _) => "Joints",
+        (TypeRef::Simple(SimpleType::Bool), Some(_)) => "Bools",
+        (TypeRef::Simple(SimpleType::Real), Some(_)) => "Reals",
+        (TypeRef::Simple(SimpleType::Time), Some(_)) => "Times",
+        (TypeRef::Simple(SimpleType::String), Some(_)) => "Strs",
+        (TypeRef::Enum(_), _) => "Enum",
+        // Records are never fields or simple values (G3).
+        (TypeRef::Record(_), _) => "Record",
+    }
 }
 
 fn direction(flag: Flag) -> &'static str {
@@ -563,6 +683,61 @@ fn emit_message(
     ));
     e.line(format!("const MAX_ENCODED_LEN: usize = {enc};"));
     e.line(format!("const MAX_RECEIVE_LEN: usize = {rcv};"));
+    e.close("");
+    e.blank();
+    let w = p.wire();
+    e.open(format!("impl MessageCodec for {name}"));
+    let value_body = !matches!(p.ty, TypeRef::Record(_));
+    e.line(if value_body {
+        "const BODY: Body = Body::Value;"
+    } else {
+        "const BODY: Body = Body::Record;"
+    });
+    e.line(format!(
+        "const OPEN: &'static [u8] = {};",
+        emit::bytes_lit(&format!("<{w} Id=\""))
+    ));
+    e.line(format!(
+        "const CLOSE: &'static [u8] = {};",
+        emit::bytes_lit(&format!("</{w}>"))
+    ));
+    match p.ty {
+        TypeRef::Record(r) => {
+            let rec = &id.records[r];
+            e.line(format!(
+                "const FIELDS: &'static [FieldWire] = <{rec} as Record>::FIELDS;"
+            ));
+            e.blank();
+            e.open("fn field_index(name: &[u8]) -> Option<usize>");
+            e.line(format!("{rec}::field_index(name)"));
+            e.close("");
+            e.blank();
+            e.open("fn field(data: &Self::Data, index: usize) -> Option<FieldRef<'_>>");
+            e.line("data.field(index)");
+            e.close("");
+            e.blank();
+            e.open("fn field_mut(data: &mut Self::Data, index: usize) -> Option<FieldMut<'_>>");
+            e.line("data.field_mut(index)");
+            e.close("");
+        }
+        ty => {
+            e.line("const FIELDS: &'static [FieldWire] = &[FieldWire::new(b\"\", b\"\", b\"\")];");
+            e.blank();
+            e.open("fn field_index(_name: &[u8]) -> Option<usize>");
+            e.line("None");
+            e.close("");
+            e.blank();
+            e.open("fn field(data: &Self::Data, index: usize) -> Option<FieldRef<'_>>");
+            let value = field_ref(ty, p.size, "*data").replace("&*data", "data");
+            e.line(format!("(index == 0).then_some({value})"));
+            e.close("");
+            e.blank();
+            e.open("fn field_mut(data: &mut Self::Data, index: usize) -> Option<FieldMut<'_>>");
+            let value = field_mut(ty, p.size, "data");
+            e.line(format!("(index == 0).then_some({value})"));
+            e.close("");
+        }
+    }
     e.close("");
 }
 

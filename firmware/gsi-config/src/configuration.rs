@@ -11,6 +11,10 @@ use crate::xml::Element;
 /// need about 45 kB.
 pub const MAX_ARRAY_SIZE: u16 = 1000;
 
+/// Most fields in one record: the decoder tracks which fields a message
+/// carried in one 64-bit mask.
+pub const MAX_FIELDS: usize = 64;
+
 #[derive(Debug, Default)]
 pub struct Configuration {
     pub enums: Vec<Enum>,
@@ -93,6 +97,17 @@ pub fn read(root: &Element<'_>, sink: &mut Sink<'_>) -> Configuration {
     // Pass 2: fields and properties, now that every type name is known.
     for (index, el) in record_els {
         let fields = read_fields(el, &cfg, sink);
+        if fields.len() > MAX_FIELDS {
+            sink.error(
+                Rule::G3,
+                el.pos,
+                format!(
+                    "record \"{}\" has {} fields; the firmware supports at most {MAX_FIELDS}",
+                    cfg.records[index].name,
+                    fields.len()
+                ),
+            );
+        }
         if fields.is_empty() {
             sink.error(
                 Rule::G3,

@@ -1,0 +1,15 @@
+//! The message codec (M1–M10): robot datagrams into typed data, typed data
+//! into reply datagrams, for whatever layout the build generated.
+//!
+//! The generated code supplies, per message, the precomputed wire pieces
+//! and a field dispatch ([`crate::schema::MessageCodec`]); this module is the
+//! one generic engine behind every layout, so its no-panic, no-heap and
+//! bounded-work guarantees hold for any configuration.
+
+pub mod decode;
+pub mod encode;
+pub mod number;
+pub mod text;
+
+pub use decode::{decode, DecodeError, DecodeErrorKind, Decoded, Tally};
+pub use encode::{encode, BufferTooSmall, Encoded};

@@ -1,0 +1,541 @@
+//! Numbers on the wire (M5): parsing any decimal notation the controller
+//! writes, and writing fixed decimals without `core::fmt` float formatting
+//! (which costs ~25k instructions per message and ~16 KB of flash).
+//!
+//! Every function here does bounded work: parsing is linear in the text,
+//! writing at most 40 integer digits plus the decimals.
+
+use crate::value::Time;
+
+/// Most decimals the fixed-point writers support (time is held in µs).
+pub const MAX_DECIMALS: u8 = 6;
+
+const POW10: [u64; 7] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
+
+/// A number that could not be taken.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NumberError {
+    /// Not a decimal number.
+    Syntax,
+    /// A number, but outside what the type can hold.
+    OutOfRange,
+}
+
+/// Strips XML whitespace (space, tab, CR, LF) from both ends.
+pub fn trim(s: &[u8]) -> &[u8] {
+    let is_ws = |b: &u8| matches!(b, b' ' | b'\t' | b'\r' | b'\n');
+    let start = s.iter().position(|b| !is_ws(b)).unwrap_or(s.len());
+    let end = s.iter().rposition(|b| !is_ws(b)).map_or(start, |e| e + 1);
+    s.get(start..end).unwrap_or(&[])
+}
+
+/// The robot's message `Id`: an unsigned 32-bit decimal (S3), optional `+`.
+pub fn parse_u32(text: &[u8]) -> Result<u32, NumberError> {
+    let t = trim(text);
+    let digits = t.strip_prefix(b"+").unwrap_or(t);
+    if digits.is_empty() {
+        return Err(NumberError::Syntax);
+    }
+    let mut v: u32 = 0;
+    for &b in digits {
+        if !b.is_ascii_digit() {
+            return Err(NumberError::Syntax);
+        }
+        v = v
+            .checked_mul(10)
+            .and_then(|v| v.checked_add(u32::from(b - b'0')))
+            .ok_or(NumberError::OutOfRange)?;
+    }
+    Ok(v)
+}
+
+/// Checks the shape of a decimal float: sign, digits, optional fraction,
+/// optional exponent; no `inf`, `nan` or hex (which `f32::from_str` takes).
+fn is_decimal(t: &[u8]) -> bool {
+    let mut i = 0;
+    if matches!(t.first(), Some(b'+' | b'-')) {
+        i += 1;
+    }
+    let int_start = i;
+    while t.get(i).is_some_and(u8::is_ascii_digit) {
+        i += 1;
+    }
+    let mut digits = i - int_start;
+    if t.get(i) == Some(&b'.') {
+        i += 1;
+        let frac_start = i;
+        while t.get(i).is_some_and(u8::is_ascii_digit) {
+            i += 1;
+        }
+        digits += i - frac_start;
+    }
+    if digits == 0 {
+        return false;
+    }
+    if matches!(t.get(i), Some(b'e' | b'E')) {
+        i += 1;
+        if matches!(t.get(i), Some(b'+' | b'-')) {
+            i += 1;
+        }
+        let exp_start = i;
+        while t.get(i).is_some_and(u8::is_ascii_digit) {
+            i += 1;
+        }
+        if i == exp_start {
+            return false;
+        }
+    }
+    i == t.len()
+}
+
+/// An RRI `real` (M5): any decimal float text, with sign and exponent,
+/// surrounded by whitespace or not (`1.21592e-06`, ` -12345.678901 `).
+/// Correctly rounded by `core`'s parser; a finite text beyond `f32`'s range
+/// is [`NumberError::OutOfRange`].
+pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
+    let t = trim(text);
+    if !is_decimal(t) {
+        return Err(NumberError::Syntax);
+    }
+    // `is_decimal` admitted ASCII only, so this cannot fail.
+    let s = core::str::from_utf8(t).map_err(|_| NumberError::Syntax)?;
+    let v: f32 = s.parse().map_err(|_| NumberError::Syntax)?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(NumberError::OutOfRange)
+    }
+}
+
+/// An RRI `time` (seconds) as exact microseconds: decimal digits are taken
+/// as written, never through a float, so `86400.123` is exactly
+/// 86 400 123 000 µs. More than 6 decimals round half away from zero.
+pub fn parse_time(text: &[u8]) -> Result<Time, NumberError> {
+    let t = trim(text);
+    if !is_decimal(t) {
+        return Err(NumberError::Syntax);
+    }
+    let (negative, rest) = match t.first() {
+        Some(b'-') => (true, &t[1..]),
+        Some(b'+') => (false, &t[1..]),
+        _ => (false, t),
+    };
+    // Mantissa digits (up to 19 significant) and the power of ten they
+    // are scaled by.
+    let mut mantissa: u64 = 0;
+    let mut scale: i32 = 0;
+    let mut significant = 0u32;
+    // The first digit past 19 significant ones, for rounding.
+    let mut round_digit: Option<u8> = None;
+    let mut seen_dot = false;
+    let mut i = 0;
+    while let Some(&b) = rest.get(i) {
+        match b {
+            b'0'..=b'9' => {
+                let d = b - b'0';
+                if significant < 19 {
+                    if mantissa != 0 || d != 0 {
+                        significant += 1;
+                    }
+                    mantissa = mantissa * 10 + u64::from(d);
+                    if seen_dot {
+                        scale -= 1;
+                    }
+                } else {
+                    // Digits past 19 significant: only the first one
+                    // matters for rounding (the rest is below it).
+                    if round_digit.is_none() {
+                        round_digit = Some(d);
+                    }
+                    if !seen_dot {
+                        scale += 1;
+                    }
+                }
+            }
+            b'.' => seen_dot = true,
+            _ => break,
+        }
+        i += 1;
+    }
+    if matches!(rest.get(i), Some(b'e' | b'E')) {
+        let exp = rest.get(i + 1..).unwrap_or(&[]);
+        let (eneg, edigits) = match exp.first() {
+            Some(b'-') => (true, &exp[1..]),
+            Some(b'+') => (false, &exp[1..]),
+            _ => (false, exp),
+        };
+        let mut e: i32 = 0;
+        for &b in edigits {
+            // Clamp: anything this large is out of range anyway.
+            e = (e * 10 + i32::from(b - b'0')).min(10_000);
+        }
+        scale += if eneg { -e } else { e };
+    }
+    // micros = mantissa × 10^(scale + 6)
+    let shift = scale + 6;
+    let micros: u64 = if mantissa == 0 {
+        0
+    } else if shift >= 0 {
+        let mut v = mantissa;
+        for _ in 0..shift {
+            v = v.checked_mul(10).ok_or(NumberError::OutOfRange)?;
+        }
+        v
+    } else {
+        let drop = (-shift) as u32;
+        if drop > 19 {
+            // Smaller than 0.5 µs unless the mantissa rounds up, which it
+            // cannot with 19 digits dropped below the unit.
+            0
+        } else {
+            let div = 10u64.pow(drop);
+            let q = mantissa / div;
+            let r = mantissa % div;
+            // Half away from zero (on the magnitude); digits dropped past
+            // the 19th are below `r`'s unit and cannot change the outcome.
+            if r >= div / 2 {
+                q + 1
+            } else {
+                q
+            }
+        }
+    };
+    // With nothing dropped below the microsecond, a 20th significant digit
+    // is the next one (with more integer digits it is out of range anyway).
+    let micros = if shift >= 0 && round_digit.is_some_and(|d| d >= 5) {
+        micros.checked_add(1).ok_or(NumberError::OutOfRange)?
+    } else {
+        micros
+    };
+    let micros = i64::try_from(micros).map_err(|_| NumberError::OutOfRange)?;
+    Ok(Time::from_micros(if negative { -micros } else { micros }))
+}
+
+/// A byte sink with a fixed capacity that never panics: a write that does
+/// not fit sets `overflow` and is dropped. Buffers are sized by the
+/// generated maxima, so in the firmware it never overflows; the flag makes
+/// sure a wrong size is an error, not memory corruption.
+pub struct Writer<'a> {
+    buf: &'a mut [u8],
+    len: usize,
+    overflow: bool,
+}
+
+impl<'a> Writer<'a> {
+    pub fn new(buf: &'a mut [u8]) -> Self {
+        Writer {
+            buf,
+            len: 0,
+            overflow: false,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    pub fn overflowed(&self) -> bool {
+        self.overflow
+    }
+
+    /// The bytes written so far.
+    pub fn written(&self) -> &[u8] {
+        self.buf.get(..self.len).unwrap_or(&[])
+    }
+
+    #[inline]
+    pub fn bytes(&mut self, b: &[u8]) {
+        let end = self.len + b.len();
+        match self.buf.get_mut(self.len..end) {
+            Some(dst) => {
+                dst.copy_from_slice(b);
+                self.len = end;
+            }
+            None => self.overflow = true,
+        }
+    }
+
+    #[inline]
+    pub fn byte(&mut self, b: u8) {
+        match self.buf.get_mut(self.len) {
+            Some(dst) => {
+                *dst = b;
+                self.len += 1;
+            }
+            None => self.overflow = true,
+        }
+    }
+
+    /// Decimal digits of `v`.
+    pub fn u64(&mut self, mut v: u64) {
+        let mut digits = [0u8; 20];
+        let mut i = digits.len();
+        loop {
+            i -= 1;
+            digits[i] = b'0' + (v % 10) as u8;
+            v /= 10;
+            if v == 0 || i == 0 {
+                break;
+            }
+        }
+        self.bytes(&digits[i..]);
+    }
+
+    fn u128(&mut self, mut v: u128) {
+        let mut digits = [0u8; 40];
+        let mut i = digits.len();
+        loop {
+            i -= 1;
+            digits[i] = b'0' + (v % 10) as u8;
+            v /= 10;
+            if v == 0 || i == 0 {
+                break;
+            }
+        }
+        self.bytes(&digits[i..]);
+    }
+
+    /// `frac` as exactly `decimals` digits, zero-padded, after a point.
+    fn fraction(&mut self, frac: u64, decimals: u8) {
+        if decimals == 0 {
+            return;
+        }
+        let mut digits = [b'0'; MAX_DECIMALS as usize];
+        let n = usize::from(decimals.min(MAX_DECIMALS));
+        let mut v = frac;
+        for d in digits[..n].iter_mut().rev() {
+            *d = b'0' + (v % 10) as u8;
+            v /= 10;
+        }
+        self.byte(b'.');
+        self.bytes(&digits[..n]);
+    }
+
+    /// An `f32` with exactly `decimals` decimals, never exponent notation
+    /// (M5), rounded half to even on the exact binary value. Non-finite
+    /// values are written as zero; the return value says so, for counting.
+    ///
+    /// Integer arithmetic only: the f32 is `m × 2^e` with a 24-bit `m`, so
+    /// `m × 10^decimals` fits a `u64` and one shift gives the rounded
+    /// fixed-point value; values of 2^24 and more are integers (`m << e`).
+    pub fn real(&mut self, x: f32, decimals: u8) -> bool {
+        let decimals = decimals.min(MAX_DECIMALS);
+        if !x.is_finite() {
+            self.byte(b'0');
+            self.fraction(0, decimals);
+            return false;
+        }
+        let bits = x.to_bits();
+        let negative = bits >> 31 == 1;
+        let biased = ((bits >> 23) & 0xff) as i32;
+        let frac = u64::from(bits & 0x007f_ffff);
+        let (m, e) = if biased == 0 {
+            (frac, -149)
+        } else {
+            (frac | 0x0080_0000, biased - 150)
+        };
+        if e >= 0 {
+            if negative && m != 0 {
+                self.byte(b'-');
+            }
+            self.u128(u128::from(m) << e);
+            self.fraction(0, decimals);
+            return true;
+        }
+        let pow = POW10[usize::from(decimals)];
+        let scaled = m * pow;
+        let shift = (-e) as u32;
+        let q = if shift >= 64 {
+            0
+        } else {
+            let q = scaled >> shift;
+            let r = scaled & ((1u64 << shift) - 1);
+            let half = 1u64 << (shift - 1);
+            if r > half || (r == half && q & 1 == 1) {
+                q + 1
+            } else {
+                q
+            }
+        };
+        if negative && q != 0 {
+            self.byte(b'-');
+        }
+        self.u64(q / pow);
+        self.fraction(q % pow, decimals);
+        true
+    }
+
+    /// A time in seconds with exactly `decimals` decimals, rounded half
+    /// away from zero from the exact microseconds.
+    pub fn time(&mut self, t: Time, decimals: u8) {
+        let decimals = decimals.min(MAX_DECIMALS);
+        let micros = t.as_micros();
+        let magnitude = micros.unsigned_abs();
+        let unit = POW10[usize::from(MAX_DECIMALS - decimals)];
+        let q = (magnitude + unit / 2) / unit;
+        let pow = POW10[usize::from(decimals)];
+        if micros < 0 && q != 0 {
+            self.byte(b'-');
+        }
+        self.u64(q / pow);
+        self.fraction(q % pow, decimals);
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::excessive_precision)] // the robot writes such texts
+mod tests {
+    use super::*;
+    extern crate std;
+    use std::format;
+    use std::string::String;
+
+    fn real(x: f32, d: u8) -> String {
+        let mut buf = [0u8; 64];
+        let mut w = Writer::new(&mut buf);
+        w.real(x, d);
+        String::from_utf8(w.written().to_vec()).unwrap()
+    }
+
+    fn time(micros: i64, d: u8) -> String {
+        let mut buf = [0u8; 64];
+        let mut w = Writer::new(&mut buf);
+        w.time(Time::from_micros(micros), d);
+        String::from_utf8(w.written().to_vec()).unwrap()
+    }
+
+    #[test]
+    fn m5_reals_have_fixed_decimals_and_no_exponent() {
+        assert_eq!(real(232.661, 3), "232.661");
+        assert_eq!(real(1620.293, 3), "1620.293");
+        assert_eq!(real(0.0, 3), "0.000");
+        assert_eq!(real(1.21592e-06, 3), "0.000");
+        assert_eq!(real(-12345.678901, 3), "-12345.679");
+        assert_eq!(real(1.5, 0), "2");
+        assert_eq!(real(2.5, 0), "2");
+        assert_eq!(real(1e20, 3), "100000002004087734272.000");
+        assert_eq!(real(f32::MAX, 3).len(), 39 + 4);
+        assert_eq!(real(f32::MIN, 3).len(), 1 + 39 + 4);
+        assert_eq!(real(-0.0, 3), "0.000");
+        assert_eq!(real(-0.0001, 3), "0.000");
+        assert_eq!(real(f32::from_bits(1), 6), "0.000000");
+    }
+
+    #[test]
+    fn m5_non_finite_is_written_as_zero_and_reported() {
+        let mut buf = [0u8; 16];
+        let mut w = Writer::new(&mut buf);
+        assert!(!w.real(f32::NAN, 3));
+        assert!(!w.real(f32::INFINITY, 2));
+        assert_eq!(w.written(), b"0.0000.00");
+    }
+
+    #[test]
+    fn m5_reals_match_core_fmt_on_many_values() {
+        // core::fmt is the oracle here (host test only): same digits,
+        // except that we never write "-0.000".
+        let mut x: u32 = 0x1234_5678;
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            let v = f32::from_bits(x);
+            if !v.is_finite() {
+                continue;
+            }
+            for d in [0u8, 3, 6] {
+                let mut want = format!("{:.*}", usize::from(d), v);
+                if want.starts_with('-') && want.bytes().all(|b| matches!(b, b'-' | b'0' | b'.')) {
+                    want.remove(0);
+                }
+                assert_eq!(real(v, d), want, "{v:e} with {d} decimals");
+            }
+        }
+    }
+
+    #[test]
+    fn m5_times_are_exact() {
+        assert_eq!(time(1_234_000, 3), "1.234");
+        assert_eq!(time(765_315_969, 3), "765.316");
+        assert_eq!(time(765_315_969, 6), "765.315969");
+        assert_eq!(time(86_400_123_000, 3), "86400.123");
+        assert_eq!(time(-1_500, 3), "-0.002");
+        assert_eq!(time(-499, 3), "0.000");
+        assert_eq!(time(i64::MIN, 3), "-9223372036854.776");
+        assert_eq!(time(7, 0), "0");
+    }
+
+    #[test]
+    fn m5_reals_parse_in_any_decimal_notation() {
+        assert_eq!(parse_f32(b"1620.0"), Ok(1620.0));
+        assert_eq!(parse_f32(b" -12345.678901\n"), Ok(-12345.678901));
+        assert_eq!(parse_f32(b"1.21592e-06"), Ok(1.21592e-06));
+        assert_eq!(parse_f32(b"+.5E+1"), Ok(5.0));
+        assert_eq!(parse_f32(b"7."), Ok(7.0));
+        assert_eq!(parse_f32(b"1e39"), Err(NumberError::OutOfRange));
+        for bad in [
+            &b""[..],
+            b" ",
+            b"abc",
+            b"1.2.3",
+            b"inf",
+            b"NaN",
+            b"0x10",
+            b"1e",
+            b"--1",
+            b"1 2",
+            b".",
+        ] {
+            assert_eq!(
+                parse_f32(bad),
+                Err(NumberError::Syntax),
+                "{:?}",
+                core::str::from_utf8(bad)
+            );
+        }
+    }
+
+    #[test]
+    fn m5_times_parse_exactly_in_any_notation() {
+        let t = |s: &[u8]| parse_time(s).map(Time::as_micros);
+        assert_eq!(t(b"86400.123"), Ok(86_400_123_000));
+        assert_eq!(t(b"765.315969"), Ok(765_315_969));
+        assert_eq!(t(b" 1.200 "), Ok(1_200_000));
+        assert_eq!(t(b"-0.5"), Ok(-500_000));
+        assert_eq!(t(b"1.5e-3"), Ok(1_500));
+        assert_eq!(t(b"2E3"), Ok(2_000_000_000));
+        assert_eq!(t(b"0.0000005"), Ok(1), "half a µs rounds away from zero");
+        assert_eq!(t(b"0.00000049"), Ok(0));
+        assert_eq!(t(b"-0.0000005"), Ok(-1));
+        assert_eq!(t(b"12345678901234567890123"), Err(NumberError::OutOfRange));
+        assert_eq!(t(b"1e300"), Err(NumberError::OutOfRange));
+        assert_eq!(t(b"1e-300"), Ok(0));
+        assert_eq!(t(b"9223372036854.775807"), Ok(i64::MAX));
+        assert_eq!(t(b"9223372036854.775808"), Err(NumberError::OutOfRange));
+        assert_eq!(t(b"x"), Err(NumberError::Syntax));
+        assert_eq!(t(b"inf"), Err(NumberError::Syntax));
+    }
+
+    #[test]
+    fn s3_ids_are_u32() {
+        assert_eq!(parse_u32(b"111"), Ok(111));
+        assert_eq!(parse_u32(b" 4294967295 "), Ok(u32::MAX));
+        assert_eq!(parse_u32(b"4294967296"), Err(NumberError::OutOfRange));
+        assert_eq!(parse_u32(b"-1"), Err(NumberError::Syntax));
+        assert_eq!(parse_u32(b"1.0"), Err(NumberError::Syntax));
+        assert_eq!(parse_u32(b""), Err(NumberError::Syntax));
+    }
+
+    #[test]
+    fn writer_never_overruns() {
+        let mut buf = [0u8; 4];
+        let mut w = Writer::new(&mut buf);
+        w.real(1234.5, 3);
+        assert!(w.overflowed());
+        assert!(w.len() <= 4);
+    }
+}

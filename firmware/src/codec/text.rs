@@ -1,0 +1,172 @@
+//! Strings on the wire (M6): escaped on the way out, entity- and
+//! character-reference-decoded on the way in, cut at 80 bytes on a UTF-8
+//! boundary.
+
+use super::number::Writer;
+use crate::value::{RriString, MAX_STRING_LEN};
+
+/// Writes `s` with `& < > " '` escaped (valid in element text and in
+/// attribute values alike).
+pub fn write_escaped(w: &mut Writer<'_>, s: &str) {
+    let bytes = s.as_bytes();
+    let mut start = 0;
+    for (i, &b) in bytes.iter().enumerate() {
+        let entity: &[u8] = match b {
+            b'&' => b"&amp;",
+            b'<' => b"&lt;",
+            b'>' => b"&gt;",
+            b'"' => b"&quot;",
+            b'\'' => b"&apos;",
+            _ => continue,
+        };
+        w.bytes(bytes.get(start..i).unwrap_or(&[]));
+        w.bytes(entity);
+        start = i + 1;
+    }
+    w.bytes(bytes.get(start..).unwrap_or(&[]));
+}
+
+/// A reference that is not one of the five predefined entities or a valid
+/// character reference.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BadReference {
+    /// Byte offset of the `&` within the text.
+    pub at: usize,
+}
+
+/// Longest reference we look at: `&#x10FFFF;` / `&#1114111;` are 10 bytes.
+const MAX_REFERENCE: usize = 10;
+
+fn reference(r: &[u8]) -> Option<char> {
+    match r {
+        b"amp" => Some('&'),
+        b"lt" => Some('<'),
+        b"gt" => Some('>'),
+        b"quot" => Some('"'),
+        b"apos" => Some('\''),
+        [b'#', b'x', hex @ ..] if !hex.is_empty() => {
+            let mut v: u32 = 0;
+            for &h in hex {
+                v = v * 16 + (h as char).to_digit(16)?;
+            }
+            char::from_u32(v)
+        }
+        [b'#', dec @ ..] if !dec.is_empty() => {
+            let mut v: u32 = 0;
+            for &d in dec {
+                v = v * 10 + (d as char).to_digit(10)?;
+            }
+            char::from_u32(v)
+        }
+        _ => None,
+    }
+}
+
+/// Appends raw element text to `out`, decoding references. Returns whether
+/// the text was cut at [`MAX_STRING_LEN`] bytes (M6); what does not fit is
+/// dropped at a character boundary, never split.
+pub fn append_decoded(out: &mut RriString, raw: &str) -> Result<bool, BadReference> {
+    let mut truncated = false;
+    let mut push = |out: &mut RriString, s: &str| {
+        if truncated {
+            return;
+        }
+        let room = MAX_STRING_LEN - out.len();
+        if s.len() <= room {
+            // Cannot fail: it fits.
+            let _ = out.push_str(s);
+        } else {
+            let mut cut = room;
+            while !s.is_char_boundary(cut) {
+                cut -= 1;
+            }
+            let _ = out.push_str(s.get(..cut).unwrap_or(""));
+            truncated = true;
+        }
+    };
+    let mut rest = raw;
+    let mut offset = 0;
+    while let Some(amp) = rest.find('&') {
+        push(out, rest.get(..amp).unwrap_or(""));
+        let after = rest.get(amp + 1..).unwrap_or("");
+        let end = after
+            .bytes()
+            .take(MAX_REFERENCE)
+            .position(|b| b == b';')
+            .ok_or(BadReference { at: offset + amp })?;
+        let c = reference(after.as_bytes().get(..end).unwrap_or(&[]))
+            .ok_or(BadReference { at: offset + amp })?;
+        let mut utf8 = [0u8; 4];
+        push(out, c.encode_utf8(&mut utf8));
+        let consumed = amp + 1 + end + 1;
+        offset += consumed;
+        rest = rest.get(consumed..).unwrap_or("");
+    }
+    push(out, rest);
+    Ok(truncated)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn escaped(s: &str) -> heapless::Vec<u8, 256> {
+        let mut buf = [0u8; 256];
+        let mut w = Writer::new(&mut buf);
+        write_escaped(&mut w, s);
+        heapless::Vec::from_slice(w.written()).unwrap()
+    }
+
+    #[test]
+    fn m6_escapes_the_five_characters() {
+        assert_eq!(
+            &escaped("a&b<c>d\"e'f")[..],
+            b"a&amp;b&lt;c&gt;d&quot;e&apos;f"
+        );
+        assert_eq!(&escaped("plain")[..], b"plain");
+        assert_eq!(&escaped("")[..], b"");
+    }
+
+    #[test]
+    fn m6_decodes_entities_and_character_references() {
+        let mut s = RriString::new();
+        assert_eq!(
+            append_decoded(&mut s, "a&amp;b&lt;&#65;&#x42;&quot;&apos;&gt;"),
+            Ok(false)
+        );
+        assert_eq!(s.as_str(), "a&b<AB\"'>");
+    }
+
+    #[test]
+    fn m6_rejects_unknown_or_unterminated_references() {
+        let mut s = RriString::new();
+        assert_eq!(
+            append_decoded(&mut s, "ab&nbsp;"),
+            Err(BadReference { at: 2 })
+        );
+        assert_eq!(
+            append_decoded(&mut s, "&amp;&#xD800;"),
+            Err(BadReference { at: 5 })
+        );
+        assert_eq!(append_decoded(&mut s, "x&amp"), Err(BadReference { at: 1 }));
+        assert_eq!(append_decoded(&mut s, "&#;"), Err(BadReference { at: 0 }));
+    }
+
+    #[test]
+    fn m6_long_strings_are_cut_at_80_bytes_on_a_char_boundary() {
+        let mut s = RriString::new();
+        let long = "é".repeat(50); // 100 bytes
+        assert_eq!(append_decoded(&mut s, &long), Ok(true));
+        assert_eq!(s.len(), 80);
+        assert_eq!(s.chars().count(), 40);
+
+        let mut s = RriString::new();
+        let odd = ["x", &"é".repeat(45)].concat(); // 91 bytes, boundary at 79
+        assert_eq!(append_decoded(&mut s, &odd), Ok(true));
+        assert_eq!(s.len(), 79);
+
+        let mut s = RriString::new();
+        assert_eq!(append_decoded(&mut s, &"a".repeat(80)), Ok(false));
+        assert_eq!(s.len(), 80);
+    }
+}
