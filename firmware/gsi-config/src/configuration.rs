@@ -293,12 +293,13 @@ fn read_enum(el: &Element<'_>, sink: &mut Sink<'_>) -> Option<Enum> {
         let alias = match m.attr("Alias") {
             None => None,
             Some(a) => {
-                let n = a.value.chars().count();
+                // The alias travels as a string value (M6: 80 bytes).
+                let n = a.value.len();
                 if a.value.is_empty() || a.value.trim() != a.value || n > MAX_STRING_LEN {
                     sink.error(
                         Rule::G3,
                         a.pos,
-                        format!("member Alias \"{}\" must be 1..{MAX_STRING_LEN} characters without leading or trailing spaces", a.value),
+                        format!("member Alias \"{}\" must be 1..{MAX_STRING_LEN} bytes without leading or trailing spaces", a.value),
                     );
                     continue;
                 }

@@ -340,7 +340,16 @@ fn finish_slot(
         FieldMut::Time(v) => *v = time(text, at)?,
         FieldMut::Bool(v) => *v = boolean(text, at)?,
         FieldMut::Enum(e) => {
-            let known = e.set_from_wire(trim(text.as_bytes()));
+            // An alias may hold `&` or `<` (escaped on the wire).
+            let mut decoded = RriString::new();
+            let wire = if text.contains('&') {
+                append_decoded(&mut decoded, text)
+                    .map_err(|b| err(DecodeErrorKind::BadReference, at + b.at))?;
+                decoded.as_bytes()
+            } else {
+                text.as_bytes()
+            };
+            let known = e.set_from_wire(trim(wire));
             if !known {
                 return Err(err(DecodeErrorKind::UnknownEnumMember, at));
             }
@@ -423,7 +432,8 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
         let token = token.map_err(|e| {
             let kind = if done {
                 K::TrailingGarbage
-            } else if ends_early(&e) {
+            } else if ends_early(&e) || unfinished_tail(body, last_end - base) {
+                // The tokenizer stopped because the input did.
                 K::Truncated
             } else {
                 K::Malformed
@@ -446,6 +456,10 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
                 let at = base + span.start();
                 if done {
                     return Err(err(K::TrailingGarbage, at));
+                }
+                if span.end() >= body.len() {
+                    // `<RobD` at the end: the name itself was cut.
+                    return Err(err(K::Truncated, at));
                 }
                 let name = local.as_str();
                 match depth {
@@ -577,6 +591,22 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
             .saturating_add(u16::try_from(missing).unwrap_or(u16::MAX));
     }
     Ok(Decoded { id, ts, tally })
+}
+
+/// Whether the input after the last complete token is only the start of
+/// one (`<`, `</Ts_`, `<P_act X="1" `): no `>` outside quotes, so more bytes
+/// could have completed it. Error path only: linear in the tail.
+fn unfinished_tail(text: &str, from: usize) -> bool {
+    let mut quote: Option<u8> = None;
+    for &b in text.as_bytes().get(from..).unwrap_or(&[]) {
+        match (quote, b) {
+            (None, b'"' | b'\'') => quote = Some(b),
+            (Some(q), _) if q == b => quote = None,
+            (None, b'>') => return false,
+            _ => {}
+        }
+    }
+    true
 }
 
 /// Whether the tokenizer failed because the input stopped mid-token.

@@ -6,7 +6,11 @@ use super::number::Writer;
 use crate::value::{RriString, MAX_STRING_LEN};
 
 /// Writes `s` with `& < > " '` escaped (valid in element text and in
-/// attribute values alike).
+/// attribute values alike). Tab, line feed and carriage return become
+/// character references, so they survive a receiver's whitespace
+/// normalisation; other control characters cannot be written in XML 1.0 at
+/// all and become `?`. No replacement is longer than 6 bytes, the bound the
+/// build script sizes buffers with.
 pub fn write_escaped(w: &mut Writer<'_>, s: &str) {
     let bytes = s.as_bytes();
     let mut start = 0;
@@ -17,6 +21,10 @@ pub fn write_escaped(w: &mut Writer<'_>, s: &str) {
             b'>' => b"&gt;",
             b'"' => b"&quot;",
             b'\'' => b"&apos;",
+            b'\t' => b"&#9;",
+            b'\n' => b"&#10;",
+            b'\r' => b"&#13;",
+            0..=0x1f => b"?",
             _ => continue,
         };
         w.bytes(bytes.get(start..i).unwrap_or(&[]));
@@ -115,6 +123,11 @@ mod tests {
         let mut w = Writer::new(&mut buf);
         write_escaped(&mut w, s);
         heapless::Vec::from_slice(w.written()).unwrap()
+    }
+
+    #[test]
+    fn m6_escapes_control_characters() {
+        assert_eq!(&escaped("a\tb\nc\rd\u{1}e")[..], b"a&#9;b&#10;c&#13;d?e");
     }
 
     #[test]
