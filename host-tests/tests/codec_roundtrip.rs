@@ -14,7 +14,7 @@ fn real() -> impl Strategy<Value = f32> {
         -1.0e6f32..1.0e6,
         -1.0f32..1.0,
         Just(0.0f32),
-        Just(-12345.678901f32),
+        Just(-12_345.679_f32),
     ]
 }
 
