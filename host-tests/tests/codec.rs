@@ -2,6 +2,9 @@
 //! and hand-made bad inputs (PROTOCOL.md M1–M8). Every rejection asserts its
 //! kind and byte offset, every tolerance its counter.
 
+// Tests set "previous values" on a default struct before decoding over it.
+#![allow(clippy::field_reassign_with_default)]
+
 use host_tests::layouts::{anydevice, every_type, udptest};
 use host_tests::shared_rri;
 use rri_firmware::codec::{decode, encode, DecodeErrorKind as K, Tally};
