@@ -13,7 +13,22 @@
 //! Rules: no heap, no recursion, no panics on any input; every buffer is
 //! sized by a generated constant.
 #![cfg_attr(not(test), no_std)]
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
+// The cycle path must not panic on any input: no panicking index, no
+// unwrap/expect, no explicit panic. Enforced by clippy (CI runs it with
+// -D warnings); tests may use them.
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::indexing_slicing,
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::unreachable,
+        clippy::todo,
+        clippy::unimplemented
+    )
+)]
 
 pub mod codec;
 pub mod layout;

@@ -159,6 +159,9 @@ pub trait MessageCodec: Message {
     /// For [`Body::Record`], the record's fields; for [`Body::Value`], one
     /// entry whose `name` is empty.
     const FIELDS: &'static [FieldWire];
+    /// ` X1="`, ` X2="`, …: attribute openers of array elements (M4),
+    /// precomputed for the longest array of the layout.
+    const ARRAY_ATTRS: &'static [&'static [u8]] = &[];
     fn field_index(name: &[u8]) -> Option<usize>;
     fn field(data: &Self::Data, index: usize) -> Option<FieldRef<'_>>;
     fn field_mut(data: &mut Self::Data, index: usize) -> Option<FieldMut<'_>>;

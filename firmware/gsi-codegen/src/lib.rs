@@ -335,6 +335,8 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
         emit_message(&mut e, device, &id, i, p, message_sizes[i]);
     }
     e.blank();
+    emit_array_attrs(&mut e, device);
+    e.blank();
     emit_totals(&mut e, device, &id, &message_sizes);
     Ok(e.finish())
 }
@@ -701,6 +703,7 @@ fn emit_message(
         "const CLOSE: &'static [u8] = {};",
         emit::bytes_lit(&format!("</{w}>"))
     ));
+    e.line("const ARRAY_ATTRS: &'static [&'static [u8]] = &ARRAY_ATTRS;");
     match p.ty {
         TypeRef::Record(r) => {
             let rec = &id.records[r];
@@ -739,6 +742,32 @@ fn emit_message(
         }
     }
     e.close("");
+}
+
+/// The ` X<i>="` attribute openers of arrays (M4) up to the longest array
+/// of the layout, so the encoder copies them instead of formatting indices.
+fn emit_array_attrs(e: &mut Emitter, d: &Device) {
+    let sizes = d
+        .records
+        .iter()
+        .flat_map(|r| r.fields.iter().map(|f| f.size));
+    let longest = sizes
+        .chain(d.properties.iter().map(|p| p.size))
+        .flatten()
+        .max()
+        .unwrap_or(0);
+    e.doc("Attribute openers of array elements, ` X1=\"` … (M4), precomputed up to the");
+    e.doc("longest array of this layout.");
+    e.line("#[rustfmt::skip]");
+    if longest == 0 {
+        e.line("pub const ARRAY_ATTRS: [&[u8]; 0] = [];");
+        return;
+    }
+    e.line(format!("pub const ARRAY_ATTRS: [&[u8]; {longest}] = ["));
+    for i in 1..=longest {
+        e.line(format!("    {},", emit::bytes_lit(&format!(" X{i}=\""))));
+    }
+    e.line("];");
 }
 
 fn emit_totals(e: &mut Emitter, d: &Device, id: &Idents, sizes: &[(usize, usize)]) {

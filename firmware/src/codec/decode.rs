@@ -169,14 +169,35 @@ fn joint_component(name: &[u8]) -> Option<usize> {
     }
 }
 
-/// `X1`..`XN` → 0..N-1 (M4); no leading zeros.
+/// `X1`..`XN` → 0..N-1 (M4); no leading zeros, at most 4 digits (N ≤
+/// 1000, G3).
 fn array_component(name: &[u8], len: usize) -> Option<usize> {
     let digits = name.strip_prefix(b"X")?;
-    if digits.first() == Some(&b'0') || digits.len() > 4 {
+    if digits.first() == Some(&b'0') || digits.is_empty() || digits.len() > 4 {
         return None;
     }
-    let n = parse_u32(digits).ok()? as usize;
+    let mut n = 0usize;
+    for &b in digits {
+        let d = b.wrapping_sub(b'0');
+        if d > 9 {
+            return None;
+        }
+        n = n * 10 + usize::from(d);
+    }
     (1..=len).contains(&n).then(|| n - 1)
+}
+
+/// The datagram as text. Robot messages are ASCII; checking that a word at
+/// a time is several times cheaper than full UTF-8 validation, which only
+/// runs when a non-ASCII byte is present.
+#[allow(unsafe_code)]
+fn utf8(bytes: &[u8]) -> Result<&str, core::str::Utf8Error> {
+    if bytes.is_ascii() {
+        // SAFETY: every byte is ASCII, and ASCII is valid UTF-8.
+        Ok(unsafe { core::str::from_utf8_unchecked(bytes) })
+    } else {
+        core::str::from_utf8(bytes)
+    }
 }
 
 /// M7: `true/false/1/0` in any case, surrounded by whitespace or not.
@@ -404,7 +425,7 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
     if bytes.len() > M::MAX_RECEIVE_LEN {
         return Err(err(K::TooLong, M::MAX_RECEIVE_LEN));
     }
-    let text = core::str::from_utf8(bytes).map_err(|e| err(K::NotUtf8, e.valid_up_to()))?;
+    let text = utf8(bytes).map_err(|e| err(K::NotUtf8, e.valid_up_to()))?;
     // M1: whitespace may precede the declaration; xmlparser does not allow
     // it, so skip it and keep offsets relative to the datagram.
     let body = text.trim_start_matches([' ', '\t', '\r', '\n']);

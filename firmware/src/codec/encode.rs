@@ -37,6 +37,8 @@ struct Out<'w, 'b> {
     w: &'w mut Writer<'b>,
     format: Format,
     non_finite: u16,
+    /// The layout's precomputed ` X<i>="` pieces.
+    array_attrs: &'static [&'static [u8]],
 }
 
 impl Out<'_, '_> {
@@ -58,11 +60,17 @@ impl Out<'_, '_> {
         write_escaped(self.w, s.as_str());
     }
 
-    /// ` X<i>="` for array element `i` (0-based).
+    /// ` X<i>="` for array element `i` (0-based): precomputed by the build
+    /// script; written digit by digit only if a table is missing.
     fn array_attr(&mut self, i: usize) {
-        self.w.bytes(b" X");
-        self.w.u64(i as u64 + 1);
-        self.w.bytes(b"=\"");
+        match self.array_attrs.get(i) {
+            Some(piece) => self.w.bytes(piece),
+            None => {
+                self.w.bytes(b" X");
+                self.w.u64(i as u64 + 1);
+                self.w.bytes(b"=\"");
+            }
+        }
     }
 
     /// The attributes of a multi-value field (M4); `false` for text values.
@@ -142,6 +150,7 @@ pub fn encode<M: MessageCodec>(
         w: &mut w,
         format,
         non_finite: 0,
+        array_attrs: M::ARRAY_ATTRS,
     };
     out.w.bytes(M::OPEN);
     out.w.u64(u64::from(id));

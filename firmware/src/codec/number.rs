@@ -88,18 +88,152 @@ fn is_decimal(t: &[u8]) -> bool {
     i == t.len()
 }
 
+/// Exact powers of ten in `f32` (10^10 = 2^10 × 5^10 still fits 24 bits).
+const POW10_F32: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10];
+
+/// Exact powers of ten in `f64` (up to 10^22).
+const POW10_F64: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// A decimal number split into `±mantissa × 10^exponent`, or why not.
+struct Decimal {
+    negative: bool,
+    mantissa: u64,
+    exponent: i32,
+    /// More than 19 significant digits: the mantissa is cut, use the slow
+    /// (exact) path.
+    inexact: bool,
+}
+
+/// Splits decimal float text (already trimmed): sign, digits, optional
+/// fraction, optional exponent; no `inf`, `nan` or hex.
+fn split_decimal(t: &[u8]) -> Option<Decimal> {
+    let (negative, rest) = match t.first() {
+        Some(b'-') => (true, t.get(1..).unwrap_or(&[])),
+        Some(b'+') => (false, t.get(1..).unwrap_or(&[])),
+        _ => (false, t),
+    };
+    let mut d = Decimal {
+        negative,
+        mantissa: 0,
+        exponent: 0,
+        inexact: false,
+    };
+    // Integer digits, then fraction digits: up to 19 significant digits go
+    // into the mantissa (another one cannot overflow a u64); the rest only
+    // moves the exponent or makes the value inexact.
+    const FULL: u64 = 1_000_000_000_000_000_000;
+    let mut i = 0;
+    while let Some(&b) = rest.get(i) {
+        let digit = b.wrapping_sub(b'0');
+        if digit > 9 {
+            break;
+        }
+        if d.mantissa < FULL {
+            d.mantissa = d.mantissa * 10 + u64::from(digit);
+        } else {
+            d.inexact |= digit != 0;
+            d.exponent += 1;
+        }
+        i += 1;
+    }
+    let mut digits = i;
+    if rest.get(i) == Some(&b'.') {
+        i += 1;
+        let start = i;
+        while let Some(&b) = rest.get(i) {
+            let digit = b.wrapping_sub(b'0');
+            if digit > 9 {
+                break;
+            }
+            if d.mantissa < FULL {
+                d.mantissa = d.mantissa * 10 + u64::from(digit);
+                d.exponent -= 1;
+            } else {
+                d.inexact |= digit != 0;
+            }
+            i += 1;
+        }
+        digits += i - start;
+    }
+    if digits == 0 {
+        return None;
+    }
+    if let Some(b'e' | b'E') = rest.get(i) {
+        i += 1;
+        let negative_exp = match rest.get(i) {
+            Some(b'-') => {
+                i += 1;
+                true
+            }
+            Some(b'+') => {
+                i += 1;
+                false
+            }
+            _ => false,
+        };
+        let start = i;
+        let mut e: i32 = 0;
+        while let Some(&b) = rest.get(i) {
+            let digit = b.wrapping_sub(b'0');
+            if digit > 9 {
+                break;
+            }
+            // Clamp: anything this large is out of range anyway.
+            e = (e * 10 + i32::from(digit)).min(100_000);
+            i += 1;
+        }
+        if i == start {
+            return None;
+        }
+        d.exponent += if negative_exp { -e } else { e };
+    }
+    (i == rest.len()).then_some(d)
+}
+
 /// An RRI `real` (M5): any decimal float text, with sign and exponent,
-/// surrounded by whitespace or not (`1.21592e-06`, ` -12345.678901 `).
-/// Correctly rounded by `core`'s parser; a finite text beyond `f32`'s range
-/// is [`NumberError::OutOfRange`].
+/// surrounded by whitespace or not (`1.21592e-06`, ` -12345.678901 `),
+/// correctly rounded; a finite text beyond `f32`'s range is
+/// [`NumberError::OutOfRange`].
+///
+/// Fast paths (Clinger's): a mantissa of at most 24 bits and a power of
+/// ten up to 10^10 is one exact `f32` operation; at most 53 bits and 10^22
+/// is one exact `f64` operation, rounded once more to `f32` unless the
+/// `f64` result sits exactly on an `f32` midpoint (the only case where two
+/// roundings can differ from one). Everything else goes through `core`'s
+/// parser, which is exact but slower.
 pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
     let t = trim(text);
-    if !is_decimal(t) {
-        return Err(NumberError::Syntax);
-    }
-    // `is_decimal` admitted ASCII only, so this cannot fail.
-    let s = core::str::from_utf8(t).map_err(|_| NumberError::Syntax)?;
-    let v: f32 = s.parse().map_err(|_| NumberError::Syntax)?;
+    let d = split_decimal(t).ok_or(NumberError::Syntax)?;
+    let exp = d.exponent.unsigned_abs() as usize;
+    let fast = if d.inexact {
+        None
+    } else if let (true, Some(&p)) = (d.mantissa < 1 << 24, POW10_F32.get(exp)) {
+        let m = d.mantissa as f32;
+        Some(if d.exponent < 0 { m / p } else { m * p })
+    } else if let (true, Some(&p)) = (d.mantissa < 1 << 53, POW10_F64.get(exp)) {
+        let m = d.mantissa as f64;
+        let v = if d.exponent < 0 { m / p } else { m * p };
+        // The 29 bits of an f64 mantissa below f32 precision; exactly half
+        // means the value sits on an f32 midpoint.
+        let midpoint = v.to_bits() & ((1 << 29) - 1) == 1 << 28;
+        (!midpoint).then_some(v as f32)
+    } else if d.mantissa == 0 {
+        Some(0.0)
+    } else {
+        None
+    };
+    let v = match fast {
+        Some(v) if d.negative => -v,
+        Some(v) => v,
+        None => {
+            // `split_decimal` admitted ASCII only, so this cannot fail.
+            let s = core::str::from_utf8(t).map_err(|_| NumberError::Syntax)?;
+            s.parse().map_err(|_| NumberError::Syntax)?
+        }
+    };
     if v.is_finite() {
         Ok(v)
     } else {
@@ -116,8 +250,8 @@ pub fn parse_time(text: &[u8]) -> Result<Time, NumberError> {
         return Err(NumberError::Syntax);
     }
     let (negative, rest) = match t.first() {
-        Some(b'-') => (true, &t[1..]),
-        Some(b'+') => (false, &t[1..]),
+        Some(b'-') => (true, t.get(1..).unwrap_or(&[])),
+        Some(b'+') => (false, t.get(1..).unwrap_or(&[])),
         _ => (false, t),
     };
     // Mantissa digits (up to 19 significant) and the power of ten they
@@ -160,8 +294,8 @@ pub fn parse_time(text: &[u8]) -> Result<Time, NumberError> {
     if matches!(rest.get(i), Some(b'e' | b'E')) {
         let exp = rest.get(i + 1..).unwrap_or(&[]);
         let (eneg, edigits) = match exp.first() {
-            Some(b'-') => (true, &exp[1..]),
-            Some(b'+') => (false, &exp[1..]),
+            Some(b'-') => (true, exp.get(1..).unwrap_or(&[])),
+            Some(b'+') => (false, exp.get(1..).unwrap_or(&[])),
             _ => (false, exp),
         };
         let mut e: i32 = 0;
@@ -210,6 +344,99 @@ pub fn parse_time(text: &[u8]) -> Result<Time, NumberError> {
     let micros = i64::try_from(micros).map_err(|_| NumberError::OutOfRange)?;
     Ok(Time::from_micros(if negative { -micros } else { micros }))
 }
+
+/// Decimal digits of `v` (at least one).
+fn digit_count(v: u64) -> usize {
+    let mut n = 1;
+    let mut t = v;
+    while t >= 10_000 {
+        t /= 10_000;
+        n += 4;
+    }
+    while t >= 10 {
+        t /= 10;
+        n += 1;
+    }
+    n
+}
+
+/// 10^n for n ≤ 6 (larger n is clamped).
+fn pow10(n: u8) -> u64 {
+    POW10.get(usize::from(n)).copied().unwrap_or(1_000_000)
+}
+
+/// Digits assembled right to left in a fixed buffer: 40 bytes hold the
+/// 39 digits of `f32::MAX` and a sign, or a u64, a point, 6 decimals and a
+/// sign. A push past the front is dropped (cannot happen with these sizes,
+/// and is never a panic).
+struct Backward {
+    buf: [u8; 48],
+    start: usize,
+}
+
+impl Backward {
+    fn new() -> Self {
+        Backward {
+            buf: [0; 48],
+            start: 48,
+        }
+    }
+
+    #[inline]
+    fn push(&mut self, b: u8) {
+        if let Some(i) = self.start.checked_sub(1) {
+            if let Some(slot) = self.buf.get_mut(i) {
+                *slot = b;
+                self.start = i;
+            }
+        }
+    }
+
+    #[inline]
+    fn digit(&mut self, v: u64) {
+        self.push(b'0' + (v % 10) as u8);
+    }
+
+    /// Two digits of `v < 100`.
+    #[inline]
+    fn pair(&mut self, v: u64) {
+        let [hi, lo] = DIGIT_PAIRS
+            .get((v % 100) as usize)
+            .copied()
+            .unwrap_or([b'0'; 2]);
+        self.push(lo);
+        self.push(hi);
+    }
+
+    /// All digits of `v`, at least one.
+    fn integer(&mut self, mut v: u64) {
+        while v >= 100 {
+            self.pair(v % 100);
+            v /= 100;
+        }
+        if v >= 10 {
+            self.pair(v);
+        } else {
+            self.digit(v);
+        }
+    }
+
+    fn as_slice(&self) -> &[u8] {
+        self.buf.get(self.start..).unwrap_or(&[])
+    }
+}
+
+/// "00", "01", … "99": two digits per division.
+#[allow(clippy::indexing_slicing)] // evaluated at compile time
+const DIGIT_PAIRS: [[u8; 2]; 100] = {
+    let mut t = [[0u8; 2]; 100];
+    let mut i = 0;
+    while i < 100 {
+        t[i] = [b'0' + (i / 10) as u8, b'0' + (i % 10) as u8];
+        i += 1;
+    }
+    t
+};
 
 /// A byte sink with a fixed capacity that never panics: a write that does
 /// not fit sets `overflow` and is dropped. Buffers are sized by the
@@ -271,48 +498,10 @@ impl<'a> Writer<'a> {
     }
 
     /// Decimal digits of `v`.
-    pub fn u64(&mut self, mut v: u64) {
-        let mut digits = [0u8; 20];
-        let mut i = digits.len();
-        loop {
-            i -= 1;
-            digits[i] = b'0' + (v % 10) as u8;
-            v /= 10;
-            if v == 0 || i == 0 {
-                break;
-            }
-        }
-        self.bytes(&digits[i..]);
-    }
-
-    fn u128(&mut self, mut v: u128) {
-        let mut digits = [0u8; 40];
-        let mut i = digits.len();
-        loop {
-            i -= 1;
-            digits[i] = b'0' + (v % 10) as u8;
-            v /= 10;
-            if v == 0 || i == 0 {
-                break;
-            }
-        }
-        self.bytes(&digits[i..]);
-    }
-
-    /// `frac` as exactly `decimals` digits, zero-padded, after a point.
-    fn fraction(&mut self, frac: u64, decimals: u8) {
-        if decimals == 0 {
-            return;
-        }
-        let mut digits = [b'0'; MAX_DECIMALS as usize];
-        let n = usize::from(decimals.min(MAX_DECIMALS));
-        let mut v = frac;
-        for d in digits[..n].iter_mut().rev() {
-            *d = b'0' + (v % 10) as u8;
-            v /= 10;
-        }
-        self.byte(b'.');
-        self.bytes(&digits[..n]);
+    pub fn u64(&mut self, v: u64) {
+        let mut d = Backward::new();
+        d.integer(v);
+        self.bytes(d.as_slice());
     }
 
     /// An `f32` with exactly `decimals` decimals, never exponent notation
@@ -325,8 +514,7 @@ impl<'a> Writer<'a> {
     pub fn real(&mut self, x: f32, decimals: u8) -> bool {
         let decimals = decimals.min(MAX_DECIMALS);
         if !x.is_finite() {
-            self.byte(b'0');
-            self.fraction(0, decimals);
+            self.fixed(false, 0, decimals);
             return false;
         }
         let bits = x.to_bits();
@@ -339,15 +527,27 @@ impl<'a> Writer<'a> {
             (frac | 0x0080_0000, biased - 150)
         };
         if e >= 0 {
-            if negative && m != 0 {
-                self.byte(b'-');
+            // 2^24 and above: an integer of up to 39 digits, zero fraction.
+            let mut v = u128::from(m) << e;
+            let mut d = Backward::new();
+            for _ in 0..decimals {
+                d.push(b'0');
             }
-            self.u128(u128::from(m) << e);
-            self.fraction(0, decimals);
+            if decimals > 0 {
+                d.push(b'.');
+            }
+            while v >= 1 << 64 {
+                d.digit((v % 10) as u64);
+                v /= 10;
+            }
+            d.integer(v as u64);
+            if negative {
+                d.push(b'-');
+            }
+            self.bytes(d.as_slice());
             return true;
         }
-        let pow = POW10[usize::from(decimals)];
-        let scaled = m * pow;
+        let scaled = m * pow10(decimals);
         let shift = (-e) as u32;
         let q = if shift >= 64 {
             0
@@ -361,12 +561,66 @@ impl<'a> Writer<'a> {
                 q
             }
         };
-        if negative && q != 0 {
-            self.byte(b'-');
-        }
-        self.u64(q / pow);
-        self.fraction(q % pow, decimals);
+        self.fixed(negative && q != 0, q, decimals);
         true
+    }
+
+    /// `q / 10^decimals` with exactly `decimals` decimals, written straight
+    /// into the output from its last digit backwards, two digits per
+    /// division (the hot path of every sent real: no temporary, no copy).
+    fn fixed(&mut self, negative: bool, q: u64, decimals: u8) {
+        let frac = decimals.min(MAX_DECIMALS);
+        let p = pow10(frac);
+        let mut int = q / p;
+        let mut f = q % p;
+        let frac = usize::from(frac);
+        let point = usize::from(frac > 0);
+        let total = usize::from(negative) + digit_count(int) + point + frac;
+        let start = self.len;
+        let Some(dst) = self.buf.get_mut(start..start + total) else {
+            self.overflow = true;
+            return;
+        };
+        // `total` is exact, so the iterator ends exactly at the sign; a
+        // miscount would drop digits, never panic.
+        let mut out = dst.iter_mut().rev();
+        macro_rules! put {
+            ($b:expr) => {
+                if let Some(x) = out.next() {
+                    *x = $b;
+                }
+            };
+        }
+        macro_rules! pair {
+            ($v:expr) => {
+                let [hi, lo] = DIGIT_PAIRS.get($v as usize).copied().unwrap_or([b'0'; 2]);
+                put!(lo);
+                put!(hi);
+            };
+        }
+        for _ in 0..frac / 2 {
+            pair!(f % 100);
+            f /= 100;
+        }
+        if frac % 2 == 1 {
+            put!(b'0' + (f % 10) as u8);
+        }
+        if point == 1 {
+            put!(b'.');
+        }
+        while int >= 100 {
+            pair!(int % 100);
+            int /= 100;
+        }
+        if int >= 10 {
+            pair!(int);
+        } else {
+            put!(b'0' + int as u8);
+        }
+        if negative {
+            put!(b'-');
+        }
+        self.len = start + total;
     }
 
     /// A time in seconds with exactly `decimals` decimals, rounded half
@@ -375,14 +629,9 @@ impl<'a> Writer<'a> {
         let decimals = decimals.min(MAX_DECIMALS);
         let micros = t.as_micros();
         let magnitude = micros.unsigned_abs();
-        let unit = POW10[usize::from(MAX_DECIMALS - decimals)];
+        let unit = pow10(MAX_DECIMALS - decimals);
         let q = (magnitude + unit / 2) / unit;
-        let pow = POW10[usize::from(decimals)];
-        if micros < 0 && q != 0 {
-            self.byte(b'-');
-        }
-        self.u64(q / pow);
-        self.fraction(q % pow, decimals);
+        self.fixed(micros < 0 && q != 0, q, decimals);
     }
 }
 
@@ -496,6 +745,60 @@ mod tests {
                 "{:?}",
                 core::str::from_utf8(bad)
             );
+        }
+    }
+
+    #[test]
+    fn m5_fast_paths_round_exactly_like_core() {
+        // core's parser is the oracle: correctly rounded. Texts of every
+        // shape the fast paths take or refuse.
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for _ in 0..300_000 {
+            let r = next();
+            let digits = 1 + (r % 20) as usize;
+            let mut text = String::new();
+            if r & 1 << 20 != 0 {
+                text.push('-');
+            }
+            let mut m = next();
+            for i in 0..digits {
+                if i == (r >> 24) as usize % (digits + 1) {
+                    text.push('.');
+                }
+                text.push((b'0' + (m % 10) as u8) as char);
+                m /= 10;
+            }
+            if r & 1 << 21 != 0 {
+                let e = (r >> 32) as i32 % 45;
+                text.push_str(&format!("e{e}"));
+            }
+            let want = text.parse::<f32>().ok().filter(|v| v.is_finite());
+            let got = parse_f32(text.as_bytes()).ok();
+            assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "{text}");
+        }
+        // Values printed by core (shortest round-trip) read back exactly.
+        let mut y: u32 = 1;
+        for _ in 0..200_000 {
+            y ^= y << 13;
+            y ^= y >> 17;
+            y ^= y << 5;
+            let v = f32::from_bits(y);
+            if v.is_finite() {
+                for text in [format!("{v}"), format!("{v:e}"), format!("{v:.6}")] {
+                    let want: f32 = text.parse().unwrap();
+                    assert_eq!(
+                        parse_f32(text.as_bytes()).map(f32::to_bits),
+                        Ok(want.to_bits()),
+                        "{text}"
+                    );
+                }
+            }
         }
     }
 

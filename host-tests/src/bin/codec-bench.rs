@@ -1,0 +1,309 @@
+//! `cargo codec-bench -- <robot-message.xml> <N> [--callgrind]`
+//!
+//! Decodes a robot message and encodes a reply N times with the manual
+//! example's layout (AnyDevice), and in the same run does the same work
+//! with a naive baseline (xmlparser + `write!` with `{:.3}` into a
+//! `heapless::String`), printing both and the ratio. A counting global
+//! allocator proves that our path makes no heap allocation.
+//!
+//! Time on a shared machine is noisy; the figure that counts is
+//! instructions per message under callgrind, which is deterministic:
+//! `--callgrind` re-runs this binary under `valgrind --tool=callgrind` for
+//! N=1000 and N=2000 and prints (Ir(2000) − Ir(1000)) / 1000 for each path.
+
+use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMessage};
+use rri_firmware::codec::{decode, encode};
+use rri_firmware::value::Time;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::fmt::Write as _;
+use std::hint::black_box;
+use std::process::{Command, ExitCode};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// Counts every allocation, so the bench can prove ours makes none.
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// Our path: the firmware's codec, buffers sized by the generated maxima.
+fn ours(bytes: &[u8], n: u64) -> Result<usize, String> {
+    let mut robot = layout::RobotData::default();
+    let mut reply = layout::SensorData::default();
+    let _ = reply.error_string.push_str("ok");
+    let mut buf = [0u8; layout::MAX_SEND_LEN];
+    let mut total = 0;
+    for _ in 0..n {
+        let d = decode::<RobDataMessage>(black_box(bytes), &mut robot)
+            .map_err(|e| format!("our decoder rejected the message: {e:?}"))?;
+        reply.application_data = robot.application_data;
+        let ts = d.ts.unwrap_or(Time::ZERO);
+        let out = encode::<SensDataMessage>(&reply, d.id, ts, layout::FORMAT, &mut buf)
+            .map_err(|_| "reply larger than MAX_SEND_LEN".to_string())?;
+        total += black_box(&buf[..out.len]).len();
+    }
+    Ok(total)
+}
+
+/// The floor under any decoder built on xmlparser: tokenizing the message
+/// and nothing else.
+fn tokenizer_only(bytes: &[u8], n: u64) -> Result<usize, String> {
+    let text = std::str::from_utf8(bytes).map_err(|e| e.to_string())?;
+    let mut total = 0;
+    for _ in 0..n {
+        for token in xmlparser::Tokenizer::from(black_box(text)) {
+            let _ = black_box(token.map_err(|e| e.to_string())?);
+            total += 1;
+        }
+    }
+    Ok(total)
+}
+
+/// What a first implementation would do: match names as strings, parse
+/// with `str::parse`, format with `write!("{:.3}")`.
+#[derive(Default)]
+struct Naive {
+    id: u32,
+    ts: f64,
+    mode: heapless::String<16>,
+    ts_act: f64,
+    ts_des: f64,
+    p_act: [f32; 6],
+    j_act: [f32; 6],
+    p_des: [f32; 6],
+    j_des: [f32; 6],
+    app: [f32; 18],
+}
+
+fn naive_decode(text: &str, out: &mut Naive) -> Option<()> {
+    use xmlparser::{Token, Tokenizer};
+    let mut current = "";
+    for token in Tokenizer::from(text) {
+        match token.ok()? {
+            Token::ElementStart { local, .. } => current = local.as_str(),
+            Token::Attribute { local, value, .. } => {
+                let key = local.as_str();
+                let v = value.as_str().trim();
+                let idx = |names: [&str; 6]| names.iter().position(|n| *n == key);
+                const F: [&str; 6] = ["X", "Y", "Z", "Rx", "Ry", "Rz"];
+                const J: [&str; 6] = ["J1", "J2", "J3", "J4", "J5", "J6"];
+                match current {
+                    "RobData" if key == "Id" => out.id = v.parse().ok()?,
+                    "RobData" if key == "Ts" => out.ts = v.parse().ok()?,
+                    "P_act" => out.p_act[idx(F)?] = v.parse().ok()?,
+                    "P_des" => out.p_des[idx(F)?] = v.parse().ok()?,
+                    "J_act" => out.j_act[idx(J)?] = v.parse().ok()?,
+                    "J_des" => out.j_des[idx(J)?] = v.parse().ok()?,
+                    "AppData" => {
+                        let i: usize = key.get(1..)?.parse().ok()?;
+                        *out.app.get_mut(i.checked_sub(1)?)? = v.parse().ok()?;
+                    }
+                    _ => {}
+                }
+            }
+            Token::ElementEnd { end, .. } if !matches!(end, xmlparser::ElementEnd::Open) => {
+                current = "";
+            }
+            Token::Text { text } => {
+                let t = text.as_str().trim();
+                match current {
+                    "RobMode" => {
+                        out.mode.clear();
+                        out.mode.push_str(t).ok()?;
+                    }
+                    "Ts_act" => out.ts_act = t.parse().ok()?,
+                    "Ts_des" => out.ts_des = t.parse().ok()?,
+                    _ => {}
+                }
+            }
+            _ => {}
+        }
+    }
+    Some(())
+}
+
+fn naive_encode(id: u32, ts: f64, app: &[f32; 18], out: &mut heapless::String<2048>) -> Option<()> {
+    out.clear();
+    write!(
+        out,
+        "<SensData Id=\"{id}\" Ts=\"{ts:.3}\"><EStr>ok</EStr><AppData"
+    )
+    .ok()?;
+    for (i, v) in app.iter().enumerate() {
+        write!(out, " X{}=\"{v:.3}\"", i + 1).ok()?;
+    }
+    out.push_str("/></SensData>").ok()
+}
+
+fn baseline(bytes: &[u8], n: u64) -> Result<usize, String> {
+    let mut robot = Naive::default();
+    let mut out = heapless::String::<2048>::new();
+    let mut total = 0;
+    for _ in 0..n {
+        let text = std::str::from_utf8(black_box(bytes)).map_err(|e| e.to_string())?;
+        naive_decode(text, &mut robot).ok_or("the baseline could not decode the message")?;
+        naive_encode(robot.id, robot.ts, &robot.app, &mut out).ok_or("baseline reply too long")?;
+        total += black_box(out.as_bytes()).len();
+    }
+    Ok(total)
+}
+
+/// Instructions of one run of this binary under callgrind.
+fn callgrind_ir(file: &str, n: u64, only: &str) -> Result<u64, String> {
+    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    let out = Command::new("valgrind")
+        .args(["--tool=callgrind", "--callgrind-out-file=/dev/null"])
+        .arg(&exe)
+        .args([file, &n.to_string(), "--only", only])
+        .output()
+        .map_err(|e| format!("cannot run valgrind ({e}); install it: apt-get install valgrind"))?;
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    if !out.status.success() {
+        return Err(format!("callgrind run failed:\n{stderr}"));
+    }
+    stderr
+        .lines()
+        .find_map(|l| l.split("Collected :").nth(1))
+        .and_then(|v| v.trim().parse().ok())
+        .ok_or_else(|| format!("no `Collected` line in callgrind output:\n{stderr}"))
+}
+
+fn usage() -> ExitCode {
+    eprintln!("usage: cargo codec-bench -- <robot-message.xml> <N> [--callgrind] [--only ours|baseline|tokenizer]");
+    ExitCode::from(2)
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (Some(file), Some(n)) = (
+        args.first(),
+        args.get(1).and_then(|n| n.parse::<u64>().ok()),
+    ) else {
+        return usage();
+    };
+    let only = args
+        .iter()
+        .position(|a| a == "--only")
+        .and_then(|i| args.get(i + 1));
+    let bytes = match std::fs::read(file) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("cannot read {file}: {e}");
+            return ExitCode::from(2);
+        }
+    };
+
+    // Under callgrind: run one path only, nothing else.
+    if let Some(which) = only {
+        let r = match which.as_str() {
+            "ours" => ours(&bytes, n),
+            "baseline" => baseline(&bytes, n),
+            "tokenizer" => tokenizer_only(&bytes, n),
+            _ => return usage(),
+        };
+        return match r {
+            Ok(_) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("{e}");
+                ExitCode::FAILURE
+            }
+        };
+    }
+
+    if args.iter().any(|a| a == "--callgrind") {
+        println!("instructions per message (callgrind, (Ir(N=2000) - Ir(N=1000)) / 1000), {file}:");
+        let mut per = Vec::new();
+        for which in ["ours", "baseline", "tokenizer"] {
+            let ir = callgrind_ir(file, 1000, which)
+                .and_then(|a| Ok((a, callgrind_ir(file, 2000, which)?)));
+            match ir {
+                Ok((a, b)) => {
+                    let p = b.saturating_sub(a) / 1000;
+                    let what = match which {
+                        "ours" => "ours (decode + encode)",
+                        "baseline" => "baseline (xmlparser + write! {:.3})",
+                        _ => "of which xmlparser alone (tokenizing, no decoding)",
+                    };
+                    println!("  {p:>8} Ir/message  {what}");
+                    per.push(p);
+                }
+                Err(e) => {
+                    eprintln!("{e}");
+                    return ExitCode::FAILURE;
+                }
+            }
+        }
+        if let [o, b, _] = per[..] {
+            println!(
+                "  {:>8.2}x    fewer instructions than the baseline",
+                b as f64 / o.max(1) as f64
+            );
+        }
+        return ExitCode::SUCCESS;
+    }
+
+    // Warm up, then time both paths in the same run.
+    if let Err(e) = ours(&bytes, n.min(100)).and_then(|_| baseline(&bytes, n.min(100))) {
+        eprintln!("{e}");
+        return ExitCode::FAILURE;
+    }
+    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    let t0 = Instant::now();
+    let ours_bytes = match ours(&bytes, n) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("{e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let ours_time = t0.elapsed();
+    let allocations = ALLOCATIONS.load(Ordering::Relaxed) - before;
+    let t1 = Instant::now();
+    let base_bytes = match baseline(&bytes, n) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("{e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let base_time = t1.elapsed();
+
+    let per = |d: std::time::Duration| d.as_nanos() as f64 / n as f64;
+    println!("codec bench: {file}, N = {n}, layout AnyDevice (manual example)");
+    println!(
+        "  ours      {:>9.0} ns/message  (decode + encode, reply {} bytes)",
+        per(ours_time),
+        ours_bytes / n.max(1) as usize
+    );
+    println!(
+        "  baseline  {:>9.0} ns/message  (xmlparser + write! {{:.3}}, reply {} bytes)",
+        per(base_time),
+        base_bytes / n.max(1) as usize
+    );
+    println!(
+        "  ratio     {:>9.2}x faster than the baseline",
+        per(base_time) / per(ours_time).max(1e-9)
+    );
+    println!("  heap allocations on our path: {allocations}");
+    if allocations != 0 {
+        eprintln!("error: our path allocated {allocations} times");
+        return ExitCode::FAILURE;
+    }
+    ExitCode::SUCCESS
+}
