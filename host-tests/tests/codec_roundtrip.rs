@@ -36,9 +36,15 @@ fn frame() -> impl Strategy<Value = Frame> {
 /// Any character XML 1.0 can carry (controls other than tab, LF, CR can
 /// not be written at all, so the encoder replaces them).
 fn xml_char() -> impl Strategy<Value = char> {
-    any::<char>().prop_filter("XML 1.0 character", |c| {
-        let c = *c as u32;
-        !(c < 0x20 && c != 0x9 && c != 0xA && c != 0xD) && c != 0xFFFE && c != 0xFFFF
+    any::<char>().prop_map(|c| {
+        let u = c as u32;
+        let writable =
+            !(u < 0x20 && u != 0x9 && u != 0xA && u != 0xD) && u != 0xFFFE && u != 0xFFFF;
+        if writable {
+            c
+        } else {
+            'x'
+        }
     })
 }
 
@@ -143,7 +149,11 @@ where
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 500, ..ProptestConfig::default() })]
+    // 500 cases by default; PROPTEST_CASES=100000 for a longer soak.
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(500),
+        ..ProptestConfig::default()
+    })]
 
     #[test]
     fn robdata_every_type_round_trips(data in robdata(), id in any::<u32>(), ts in time()) {

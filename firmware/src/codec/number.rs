@@ -193,6 +193,44 @@ fn split_decimal(t: &[u8]) -> Option<Decimal> {
     (i == rest.len()).then_some(d)
 }
 
+/// The common case of a robot's number in one pass: optional sign, at
+/// most 10 characters of digits and one point, no exponent (`1620.000`,
+/// `-0.0877707`). When the digits make an integer below 2^24, dividing it
+/// by an exact power of ten (at most 10^10) is one correctly rounded `f32`
+/// operation (Clinger's fast path); anything else returns `None` and takes
+/// the general path.
+fn plain_decimal(t: &[u8]) -> Option<f32> {
+    let (negative, digits) = match t.split_first() {
+        Some((b'-', rest)) => (true, rest),
+        Some((b'+', rest)) => (false, rest),
+        _ => (false, t),
+    };
+    if digits.is_empty() || digits.len() > 10 {
+        return None;
+    }
+    let mut m: u64 = 0;
+    let mut fraction: usize = 0;
+    let mut point = false;
+    let mut count = 0;
+    for &b in digits {
+        let d = b.wrapping_sub(b'0');
+        if d <= 9 {
+            m = m * 10 + u64::from(d);
+            count += 1;
+            fraction += usize::from(point);
+        } else if b == b'.' && !point {
+            point = true;
+        } else {
+            return None;
+        }
+    }
+    if count == 0 || m >= 1 << 24 {
+        return None;
+    }
+    let v = m as f32 / *POW10_F32.get(fraction)?;
+    Some(if negative { -v } else { v })
+}
+
 /// An RRI `real` (M5): any decimal float text, with sign and exponent,
 /// surrounded by whitespace or not (`1.21592e-06`, ` -12345.678901 `),
 /// correctly rounded; a finite text beyond `f32`'s range is
@@ -206,6 +244,9 @@ fn split_decimal(t: &[u8]) -> Option<Decimal> {
 /// parser, which is exact but slower.
 pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
     let t = trim(text);
+    if let Some(v) = plain_decimal(t) {
+        return Ok(v);
+    }
     let d = split_decimal(t).ok_or(NumberError::Syntax)?;
     let exp = d.exponent.unsigned_abs() as usize;
     let fast = if d.inexact {

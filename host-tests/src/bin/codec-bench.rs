@@ -61,6 +61,35 @@ fn ours(bytes: &[u8], n: u64) -> Result<usize, String> {
     Ok(total)
 }
 
+/// One half of our path, for the breakdown: `decode` or `encode` only.
+fn ours_half(bytes: &[u8], n: u64, encode_only: bool) -> Result<usize, String> {
+    let mut robot = layout::RobotData::default();
+    let mut reply = layout::SensorData::default();
+    let _ = reply.error_string.push_str("ok");
+    let mut buf = [0u8; layout::MAX_SEND_LEN];
+    let d = decode::<RobDataMessage>(bytes, &mut robot).map_err(|e| format!("{e:?}"))?;
+    reply.application_data = robot.application_data;
+    let mut total = 0;
+    for _ in 0..n {
+        if encode_only {
+            let out = encode::<SensDataMessage>(
+                black_box(&reply),
+                d.id,
+                Time::ZERO,
+                layout::FORMAT,
+                &mut buf,
+            )
+            .map_err(|_| "reply larger than MAX_SEND_LEN".to_string())?;
+            total += black_box(&buf[..out.len]).len();
+        } else {
+            let d = decode::<RobDataMessage>(black_box(bytes), &mut robot)
+                .map_err(|e| format!("{e:?}"))?;
+            total += black_box(d.id) as usize;
+        }
+    }
+    Ok(total)
+}
+
 /// The floor under any decoder built on xmlparser: tokenizing the message
 /// and nothing else.
 fn tokenizer_only(bytes: &[u8], n: u64) -> Result<usize, String> {
@@ -185,7 +214,7 @@ fn callgrind_ir(file: &str, n: u64, only: &str) -> Result<u64, String> {
 }
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo codec-bench -- <robot-message.xml> <N> [--callgrind] [--only ours|baseline|tokenizer]");
+    eprintln!("usage: cargo codec-bench -- <robot-message.xml> <N> [--callgrind] [--only ours|baseline|tokenizer|decode|encode]");
     ExitCode::from(2)
 }
 
@@ -215,6 +244,8 @@ fn main() -> ExitCode {
             "ours" => ours(&bytes, n),
             "baseline" => baseline(&bytes, n),
             "tokenizer" => tokenizer_only(&bytes, n),
+            "decode" => ours_half(&bytes, n, false),
+            "encode" => ours_half(&bytes, n, true),
             _ => return usage(),
         };
         return match r {
@@ -229,7 +260,7 @@ fn main() -> ExitCode {
     if args.iter().any(|a| a == "--callgrind") {
         println!("instructions per message (callgrind, (Ir(N=2000) - Ir(N=1000)) / 1000), {file}:");
         let mut per = Vec::new();
-        for which in ["ours", "baseline", "tokenizer"] {
+        for which in ["ours", "baseline", "tokenizer", "decode", "encode"] {
             let ir = callgrind_ir(file, 1000, which)
                 .and_then(|a| Ok((a, callgrind_ir(file, 2000, which)?)));
             match ir {
@@ -238,7 +269,9 @@ fn main() -> ExitCode {
                     let what = match which {
                         "ours" => "ours (decode + encode)",
                         "baseline" => "baseline (xmlparser + write! {:.3})",
-                        _ => "of which xmlparser alone (tokenizing, no decoding)",
+                        "tokenizer" => "  xmlparser alone (tokenizing, nothing else)",
+                        "decode" => "  ours, decode only",
+                        _ => "  ours, encode only",
                     };
                     println!("  {p:>8} Ir/message  {what}");
                     per.push(p);
@@ -249,7 +282,7 @@ fn main() -> ExitCode {
                 }
             }
         }
-        if let [o, b, _] = per[..] {
+        if let [o, b, ..] = per[..] {
             println!(
                 "  {:>8.2}x    fewer instructions than the baseline",
                 b as f64 / o.max(1) as f64
