@@ -285,6 +285,12 @@ pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
 /// An RRI `time` (seconds) as exact microseconds: decimal digits are taken
 /// as written, never through a float, so `86400.123` is exactly
 /// 86 400 123 000 µs. More than 6 decimals round half away from zero.
+///
+/// ```
+/// use rri_firmware::codec::number::parse_time;
+/// assert_eq!(parse_time(b"86400.123").map(|t| t.as_micros()), Ok(86_400_123_000));
+/// assert_eq!(parse_time(b" 1.5e-3 ").map(|t| t.as_micros()), Ok(1_500));
+/// ```
 pub fn parse_time(text: &[u8]) -> Result<Time, NumberError> {
     let t = trim(text);
     if !is_decimal(t) {
@@ -548,6 +554,16 @@ impl<'a> Writer<'a> {
     /// An `f32` with exactly `decimals` decimals, never exponent notation
     /// (M5), rounded half to even on the exact binary value. Non-finite
     /// values are written as zero; the return value says so, for counting.
+    ///
+    /// ```
+    /// use rri_firmware::codec::number::Writer;
+    /// let mut buf = [0u8; 32];
+    /// let mut w = Writer::new(&mut buf);
+    /// assert!(w.real(1.21592e-06, 3));
+    /// w.byte(b' ');
+    /// assert!(!w.real(f32::NAN, 3)); // written as zero, reported
+    /// assert_eq!(w.written(), b"0.000 0.000");
+    /// ```
     ///
     /// Integer arithmetic only: the f32 is `m × 2^e` with a 24-bit `m`, so
     /// `m × 10^decimals` fits a `u64` and one shift gives the rounded
