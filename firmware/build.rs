@@ -25,6 +25,8 @@ fn main() {
         "RRI_DEVICE",
         "RRI_REAL_DECIMALS",
         "RRI_TIME_DECIMALS",
+        "RRI_CONTROLLER",
+        "RRI_SEND_PERIOD_MS",
     ] {
         println!("cargo:rerun-if-env-changed={var}");
     }
@@ -37,6 +39,8 @@ fn main() {
     let mut errors = Vec::new();
     let real_decimals = decimals("RRI_REAL_DECIMALS", &mut errors);
     let time_decimals = decimals("RRI_TIME_DECIMALS", &mut errors);
+    let controller = controller(&mut errors);
+    let send_period_ms = send_period(&mut errors);
 
     println!("cargo:rerun-if-changed={}", gsi_dir.display());
     let loaded = gsi_config::load(&gsi_dir, device.as_deref());
@@ -73,6 +77,8 @@ fn main() {
         crate_path: "crate".into(),
         real_decimals,
         time_decimals,
+        controller,
+        send_period_ms,
     };
     let source = match gsi_codegen::generate(&loaded.device, &opts) {
         Ok(s) => s,
@@ -104,6 +110,47 @@ fn decimals(var: &str, errors: &mut Vec<String>) -> u8 {
                     gsi_codegen::MAX_DECIMALS
                 ));
                 3
+            }
+        },
+    }
+}
+
+/// `RRI_CONTROLLER=ip[:port]`: pin the controller (only it is answered).
+fn controller(errors: &mut Vec<String>) -> Option<([u8; 4], Option<u16>)> {
+    let v = env("RRI_CONTROLLER")?;
+    let (ip, port) = match v.trim().split_once(':') {
+        Some((ip, port)) => (ip, Some(port)),
+        None => (v.trim(), None),
+    };
+    let octets: Option<Vec<u8>> = ip.split('.').map(|p| p.parse().ok()).collect();
+    let ip: Option<[u8; 4]> = octets.and_then(|o| o.try_into().ok());
+    let port = match port.map(|p| p.parse::<u16>()) {
+        None => Ok(None),
+        Some(Ok(p)) if p > 0 => Ok(Some(p)),
+        Some(_) => Err(()),
+    };
+    match (ip, port) {
+        (Some(ip), Ok(port)) => Some((ip, port)),
+        _ => {
+            errors.push(format!(
+                "RRI_CONTROLLER={v}: expected an IPv4 address with an optional port, e.g. 192.168.125.1 or 192.168.125.1:3000"
+            ));
+            None
+        }
+    }
+}
+
+/// `RRI_SEND_PERIOD_MS`: a multiple of 4 ms (the controller's cycle), 0 = off.
+fn send_period(errors: &mut Vec<String>) -> u32 {
+    match env("RRI_SEND_PERIOD_MS") {
+        None => 0,
+        Some(v) => match v.trim().parse::<u32>() {
+            Ok(ms) if ms % 4 == 0 => ms,
+            _ => {
+                errors.push(format!(
+                    "RRI_SEND_PERIOD_MS={v}: must be a multiple of 4 ms (0 = off)"
+                ));
+                0
             }
         },
     }

@@ -31,6 +31,10 @@
 )]
 
 pub mod codec;
+pub mod demo;
+pub mod engine;
 pub mod layout;
+pub mod sample;
 pub mod schema;
+pub mod tcp;
 pub mod value;

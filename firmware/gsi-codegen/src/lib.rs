@@ -28,6 +28,12 @@ pub struct Options {
     pub real_decimals: u8,
     /// Decimals of times in sent messages (M5: 1 ms → 3), 0..=6.
     pub time_decimals: u8,
+    /// `RRI_CONTROLLER`: the pinned controller's IPv4 address and,
+    /// optionally, the port periodic sends go to.
+    pub controller: Option<([u8; 4], Option<u16>)>,
+    /// `RRI_SEND_PERIOD_MS`: periodic sends for one-way streams, a
+    /// multiple of 4 ms; 0 = off.
+    pub send_period_ms: u32,
 }
 
 impl Default for Options {
@@ -36,6 +42,8 @@ impl Default for Options {
             crate_path: "crate".into(),
             real_decimals: 3,
             time_decimals: 3,
+            controller: None,
+            send_period_ms: 0,
         }
     }
 }
@@ -299,6 +307,10 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
     if !device.enums.is_empty() {
         schema.push("WireEnum");
     }
+    e.use_list(
+        &format!("{k}::engine"),
+        &["Config as EngineConfig", "Pinned"],
+    );
     e.use_list(&format!("{k}::schema"), &schema);
     let used = |t: SimpleType| {
         let fields = device
@@ -321,7 +333,7 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
     .collect();
     e.use_list(&format!("{k}::value"), &values);
     e.blank();
-    emit_settings(&mut e, device, format);
+    emit_settings(&mut e, device, format, opts);
     for (i, en) in device.enums.iter().enumerate() {
         e.blank();
         emit_enum(&mut e, &id, i, en);
@@ -337,11 +349,11 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
     e.blank();
     emit_array_attrs(&mut e, device);
     e.blank();
-    emit_totals(&mut e, device, &id, &message_sizes);
+    emit_totals(&mut e, device, &id, &message_sizes, k);
     Ok(e.finish())
 }
 
-fn emit_settings(e: &mut Emitter, d: &Device, f: sizes::Format) {
+fn emit_settings(e: &mut Emitter, d: &Device, f: sizes::Format, opts: &Options) {
     e.doc("Device name (Description.xml `<Name>`, Settings.xml client).");
     e.line(format!(
         "pub const DEVICE_NAME: &str = {};",
@@ -410,6 +422,34 @@ fn emit_settings(e: &mut Emitter, d: &Device, f: sizes::Format) {
     e.open("pub const FORMAT: Format = Format");
     e.line("real_decimals: REAL_DECIMALS,");
     e.line("time_decimals: TIME_DECIMALS,");
+    e.close(";");
+    e.doc("`RRI_CONTROLLER`: the only controller answered, when pinned.");
+    match opts.controller {
+        None => e.line("pub const CONTROLLER: Option<Pinned> = None;"),
+        Some(([a, b, c, dd], port)) => {
+            let port = match port {
+                Some(p) => format!("Some({p})"),
+                None => "None".to_string(),
+            };
+            e.open("pub const CONTROLLER: Option<Pinned> = Some(Pinned");
+            e.line(format!("ip: [{a}, {b}, {c}, {dd}],"));
+            e.line(format!("port: {port},"));
+            e.close(");");
+        }
+    }
+    e.doc("`RRI_SEND_PERIOD_MS`: periodic sends for one-way streams (0 = off).");
+    e.line(format!(
+        "pub const SEND_PERIOD_MS: u32 = {};",
+        opts.send_period_ms
+    ));
+    e.doc("The cycle engine's settings for this device.");
+    e.open("pub const ENGINE_CONFIG: EngineConfig = EngineConfig");
+    e.line("timeout_ms: TIMEOUT_MS,");
+    e.line("max_lost: MAX_LOST,");
+    e.line("dry_run: DRY_RUN,");
+    e.line("controller: CONTROLLER,");
+    e.line("send_period_ms: SEND_PERIOD_MS,");
+    e.line("format: FORMAT,");
     e.close(";");
 }
 
@@ -770,7 +810,13 @@ fn emit_array_attrs(e: &mut Emitter, d: &Device) {
     e.line("];");
 }
 
-fn emit_totals(e: &mut Emitter, d: &Device, id: &Idents, sizes: &[(usize, usize)]) {
+fn emit_totals(
+    e: &mut Emitter,
+    d: &Device,
+    id: &Idents,
+    sizes: &[(usize, usize)],
+    opts_crate: &str,
+) {
     let received: Vec<usize> = (0..d.properties.len())
         .filter(|&i| d.properties[i].flag.robot_sends())
         .collect();
@@ -795,6 +841,22 @@ fn emit_totals(e: &mut Emitter, d: &Device, id: &Idents, sizes: &[(usize, usize)
     let max_of = |idx: &[usize], pick: fn(&(usize, usize)) -> usize| {
         idx.iter().map(|&i| pick(&sizes[i])).max().unwrap_or(0)
     };
+    let first = |pick: &[usize]| pick.first().map(|&i| id.messages[i].clone());
+    if let Some(rx) = first(&received) {
+        e.doc("The message the cycle engine decodes: the first property the controller sends.");
+        e.line(format!("pub type RobotMessage = {rx};"));
+    }
+    if let Some(tx) = first(&sent) {
+        e.doc("The message the cycle engine answers with: the first property the device sends.");
+        e.line(format!("pub type ReplyMessage = {tx};"));
+    }
+    if !received.is_empty() && !sent.is_empty() {
+        e.doc("The cycle engine for this device.");
+        e.line(format!(
+            "pub type DeviceEngine = {}::engine::Engine<RobotMessage, ReplyMessage>;",
+            opts_crate
+        ));
+    }
     e.doc("Size of the receive buffer: the longest message the controller may send.");
     e.doc("A longer datagram is rejected before it is parsed.");
     e.line(format!(
@@ -806,5 +868,4 @@ fn emit_totals(e: &mut Emitter, d: &Device, id: &Idents, sizes: &[(usize, usize)
         "pub const MAX_SEND_LEN: usize = {};",
         max_of(&sent, |s| s.0)
     ));
-    let _ = id;
 }

@@ -65,6 +65,35 @@ pub enum DecodeErrorKind {
     BadReference,
 }
 
+impl DecodeErrorKind {
+    /// Every kind, in declaration order (the statistics count each).
+    pub const ALL: [DecodeErrorKind; 18] = [
+        Self::TooLong,
+        Self::NotUtf8,
+        Self::Doctype,
+        Self::Malformed,
+        Self::WrongRoot,
+        Self::MissingId,
+        Self::InvalidId,
+        Self::InvalidTs,
+        Self::TooDeep,
+        Self::Truncated,
+        Self::TrailingGarbage,
+        Self::MismatchedTag,
+        Self::InvalidNumber,
+        Self::NumberOutOfRange,
+        Self::InvalidTime,
+        Self::InvalidBool,
+        Self::UnknownEnumMember,
+        Self::BadReference,
+    ];
+
+    /// Position in [`DecodeErrorKind::ALL`].
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+}
+
 /// A rejected datagram: what and where (byte offset in the datagram).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct DecodeError {

@@ -1,0 +1,190 @@
+//! Statistics: a counter for every error kind, drop reason and event, and a
+//! latency histogram, readable as one `Copy` snapshot.
+
+use crate::codec::DecodeErrorKind;
+
+/// Receive → reply-ready time in device clock ticks (µs), in power-of-two
+/// buckets: bucket `i` counts latencies below `2^i` µs (and at least
+/// `2^(i-1)`); the last bucket counts everything from 2^15 µs (32.8 ms) on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Histogram {
+    pub buckets: [u32; Histogram::BUCKETS],
+    pub count: u32,
+    pub min_us: u32,
+    pub max_us: u32,
+    /// Sum of all latencies, for the mean.
+    pub total_us: u64,
+}
+
+impl Default for Histogram {
+    fn default() -> Self {
+        Histogram {
+            buckets: [0; Histogram::BUCKETS],
+            count: 0,
+            min_us: u32::MAX,
+            max_us: 0,
+            total_us: 0,
+        }
+    }
+}
+
+impl Histogram {
+    /// 0 µs, <2, <4, … <2^15 µs (32.8 ms), and above.
+    pub const BUCKETS: usize = 17;
+
+    pub fn record(&mut self, micros: u64) {
+        let us = u32::try_from(micros).unwrap_or(u32::MAX);
+        let bucket = (u32::BITS - us.leading_zeros()) as usize;
+        let bucket = bucket.min(Self::BUCKETS - 1);
+        if let Some(b) = self.buckets.get_mut(bucket) {
+            *b = b.saturating_add(1);
+        }
+        self.count = self.count.saturating_add(1);
+        self.min_us = self.min_us.min(us);
+        self.max_us = self.max_us.max(us);
+        self.total_us = self.total_us.saturating_add(micros);
+    }
+
+    /// Upper bound (exclusive) of bucket `i` in µs; `None` for the last.
+    pub fn bucket_limit_us(i: usize) -> Option<u32> {
+        (i + 1 < Self::BUCKETS).then(|| 1u32 << i)
+    }
+}
+
+/// Why a datagram got no answer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum DropReason {
+    /// Not from the controller (or a pinned controller's address), and the
+    /// peer has not been silent for `TimeOut`.
+    ForeignSource,
+    /// Could not be decoded (the kind is counted separately).
+    Decode(DecodeErrorKind),
+    /// The reply did not fit the buffer (a wrong buffer size; never with
+    /// one of the generated `MAX_SEND_LEN`).
+    Encode,
+    /// The layout has no message the device sends: nothing to answer with.
+    NoReply,
+}
+
+/// Every counter of the engine. Counters saturate instead of wrapping.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Datagrams (or TCP messages) handed to the engine.
+    pub received: u32,
+    /// Replies produced (answers and periodic sends).
+    pub sent: u32,
+    /// Answers to robot messages (M8).
+    pub answered: u32,
+    /// Periodic sends of one-way streams.
+    pub periodic_sent: u32,
+    pub dropped_foreign: u32,
+    pub dropped_decode: u32,
+    pub dropped_encode: u32,
+    pub dropped_no_reply: u32,
+    /// Per [`DecodeErrorKind`], in the order of `DecodeErrorKind::ALL`.
+    pub decode_errors: [u32; 18],
+    /// S3: ids skipped (lost messages).
+    pub lost: u32,
+    pub duplicates: u32,
+    pub reordered: u32,
+    /// The id counter wrapped from 4294967295 to 0.
+    pub id_wraps: u32,
+    /// Gap bursts longer than `MaxLost` (S1).
+    pub max_lost_exceeded: u32,
+    /// Silences longer than `TimeOut` while operating (S1).
+    pub timeouts: u32,
+    /// The first peer locked on.
+    pub peer_locked: u32,
+    /// The peer's address changed after it was silent for `TimeOut`.
+    pub peer_takeovers: u32,
+    /// The peer's source port changed (a controller that reconnected).
+    pub port_takeovers: u32,
+    pub state_changes: u32,
+    /// M2 tolerances, summed over all messages.
+    pub unknown_elements: u32,
+    pub unknown_attributes: u32,
+    pub missing_fields: u32,
+    pub missing_values: u32,
+    pub shape_mismatches: u32,
+    pub truncated_strings: u32,
+    pub stray_text: u32,
+    /// M5: non-finite reals sent as zero.
+    pub non_finite: u32,
+    /// M10: TCP messages longer than the receive buffer.
+    pub framing_errors: u32,
+    /// TCP peers that closed the connection.
+    pub closed: u32,
+    pub latency: Histogram,
+}
+
+pub(crate) fn bump(c: &mut u32) {
+    *c = c.saturating_add(1);
+}
+
+pub(crate) fn add(c: &mut u32, n: u32) {
+    *c = c.saturating_add(n);
+}
+
+impl Stats {
+    pub(crate) fn count_drop(&mut self, reason: DropReason) {
+        match reason {
+            DropReason::ForeignSource => bump(&mut self.dropped_foreign),
+            DropReason::Decode(kind) => {
+                bump(&mut self.dropped_decode);
+                if let Some(c) = self.decode_errors.get_mut(kind.index()) {
+                    bump(c);
+                }
+            }
+            DropReason::Encode => bump(&mut self.dropped_encode),
+            DropReason::NoReply => bump(&mut self.dropped_no_reply),
+        }
+    }
+
+    pub(crate) fn count_tally(&mut self, t: &crate::codec::Tally) {
+        add(&mut self.unknown_elements, t.unknown_elements.into());
+        add(&mut self.unknown_attributes, t.unknown_attributes.into());
+        add(&mut self.missing_fields, t.missing_fields.into());
+        add(&mut self.missing_values, t.missing_values.into());
+        add(&mut self.shape_mismatches, t.shape_mismatches.into());
+        add(&mut self.truncated_strings, t.truncated_strings.into());
+        add(&mut self.stray_text, t.stray_text.into());
+    }
+
+    /// Decode errors of one kind.
+    pub fn decode_errors_of(&self, kind: DecodeErrorKind) -> u32 {
+        self.decode_errors.get(kind.index()).copied().unwrap_or(0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn histogram_buckets_are_powers_of_two() {
+        let mut h = Histogram::default();
+        for us in [0, 1, 2, 3, 4, 1000, 40_000, u64::MAX] {
+            h.record(us);
+        }
+        assert_eq!(h.buckets[0], 1); // 0
+        assert_eq!(h.buckets[1], 1); // 1
+        assert_eq!(h.buckets[2], 2); // 2, 3
+        assert_eq!(h.buckets[3], 1); // 4
+        assert_eq!(h.buckets[10], 1); // 1000 < 1024
+        assert_eq!(h.buckets[Histogram::BUCKETS - 1], 2); // 40 ms and more
+        assert_eq!((h.count, h.min_us, h.max_us), (8, 0, u32::MAX));
+        assert_eq!(Histogram::bucket_limit_us(10), Some(1024));
+        assert_eq!(Histogram::bucket_limit_us(Histogram::BUCKETS - 1), None);
+    }
+
+    #[test]
+    fn decode_error_kinds_have_their_own_counters() {
+        assert_eq!(
+            DecodeErrorKind::ALL.len(),
+            Stats::default().decode_errors.len()
+        );
+        for (i, k) in DecodeErrorKind::ALL.iter().enumerate() {
+            assert_eq!(k.index(), i);
+        }
+    }
+}

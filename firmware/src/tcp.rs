@@ -1,0 +1,163 @@
+//! M10: framing robot messages on a TCP stream. The manual defines none;
+//! our decision: messages are back-to-back XML documents, and a message
+//! ends with the end tag of its root element (or a root that closes
+//! itself). The framer takes arbitrary chunks (one byte at a time, or many
+//! messages at once), tracks just enough XML (tags, quotes, comments,
+//! processing instructions, CDATA) to know where the root ends, and hands
+//! out each complete message. Constant work per byte, no heap.
+
+/// A message longer than the receive buffer: close the connection (M10).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FramingError;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    /// Character data (or whitespace between messages).
+    Text,
+    /// Just after `<`.
+    Open,
+    /// In a start tag; `slash` = the last byte was `/`.
+    StartTag { slash: bool },
+    /// In an end tag.
+    EndTag,
+    /// In a quoted attribute value of a start tag.
+    Quoted { quote: u8 },
+    /// In `<?…?>`; `question` = the last byte was `?`.
+    Pi { question: bool },
+    /// Just after `<!`.
+    Bang,
+    /// After `<!-`.
+    BangDash,
+    /// In `<!--…-->`; the number of `-` just seen.
+    Comment { dashes: u8 },
+    /// In `<![…]]>`; the number of `]` just seen.
+    Cdata { brackets: u8 },
+    /// In another `<!…>` declaration (a DOCTYPE: the decoder rejects it).
+    Decl,
+}
+
+/// Splits a TCP byte stream into messages, in a buffer of `N` bytes (the
+/// generated `MAX_RECEIVE_LEN`).
+pub struct Framer<const N: usize> {
+    buf: [u8; N],
+    len: usize,
+    mode: Mode,
+    depth: u16,
+}
+
+impl<const N: usize> Default for Framer<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> Framer<N> {
+    pub const fn new() -> Self {
+        Framer {
+            buf: [0; N],
+            len: 0,
+            mode: Mode::Text,
+            depth: 0,
+        }
+    }
+
+    /// Forget a partial message (a new connection).
+    pub fn reset(&mut self) {
+        self.len = 0;
+        self.mode = Mode::Text;
+        self.depth = 0;
+    }
+
+    /// Bytes of an unfinished message held.
+    pub fn pending(&self) -> usize {
+        self.len
+    }
+
+    /// Feeds `chunk`; calls `message` with every message it completes, in
+    /// order. After a [`FramingError`] the framer is reset and the caller
+    /// closes the connection.
+    pub fn push(
+        &mut self,
+        chunk: &[u8],
+        mut message: impl FnMut(&[u8]),
+    ) -> Result<(), FramingError> {
+        for &b in chunk {
+            // Whitespace between messages is not kept.
+            if self.len == 0 && self.mode == Mode::Text && b.is_ascii_whitespace() {
+                continue;
+            }
+            match self.buf.get_mut(self.len) {
+                Some(slot) => *slot = b,
+                None => {
+                    self.reset();
+                    return Err(FramingError);
+                }
+            }
+            self.len += 1;
+            if self.step(b) {
+                message(self.buf.get(..self.len).unwrap_or(&[]));
+                self.reset();
+            }
+        }
+        Ok(())
+    }
+
+    /// Advances the scanner by one byte; `true` when the root just ended.
+    fn step(&mut self, b: u8) -> bool {
+        let (mode, done) = match (self.mode, b) {
+            (Mode::Text, b'<') => (Mode::Open, false),
+            (Mode::Text, _) => (Mode::Text, false),
+            (Mode::Open, b'/') => (Mode::EndTag, false),
+            (Mode::Open, b'?') => (Mode::Pi { question: false }, false),
+            (Mode::Open, b'!') => (Mode::Bang, false),
+            (Mode::Open, _) => (Mode::StartTag { slash: false }, false),
+            (Mode::StartTag { .. }, b'"' | b'\'') => (Mode::Quoted { quote: b }, false),
+            (Mode::StartTag { slash: true }, b'>') => (Mode::Text, self.depth == 0),
+            (Mode::StartTag { slash: false }, b'>') => {
+                self.depth = self.depth.saturating_add(1);
+                (Mode::Text, false)
+            }
+            (Mode::StartTag { .. }, _) => (Mode::StartTag { slash: b == b'/' }, false),
+            (Mode::Quoted { quote }, _) if b == quote => (Mode::StartTag { slash: false }, false),
+            (Mode::Quoted { quote }, _) => (Mode::Quoted { quote }, false),
+            (Mode::EndTag, b'>') => {
+                self.depth = self.depth.saturating_sub(1);
+                (Mode::Text, self.depth == 0)
+            }
+            (Mode::EndTag, _) => (Mode::EndTag, false),
+            (Mode::Pi { question: true }, b'>') => (Mode::Text, false),
+            (Mode::Pi { .. }, _) => (
+                Mode::Pi {
+                    question: b == b'?',
+                },
+                false,
+            ),
+            (Mode::Bang, b'-') => (Mode::BangDash, false),
+            (Mode::Bang, b'[') => (Mode::Cdata { brackets: 0 }, false),
+            (Mode::Bang, b'>') => (Mode::Text, false),
+            (Mode::Bang, _) => (Mode::Decl, false),
+            (Mode::BangDash, b'-') => (Mode::Comment { dashes: 0 }, false),
+            (Mode::BangDash, _) => (Mode::Decl, false),
+            (Mode::Comment { dashes }, b'>') if dashes >= 2 => (Mode::Text, false),
+            (Mode::Comment { dashes }, b'-') => (
+                Mode::Comment {
+                    dashes: dashes.saturating_add(1),
+                },
+                false,
+            ),
+            (Mode::Comment { .. }, _) => (Mode::Comment { dashes: 0 }, false),
+            (Mode::Cdata { brackets }, b'>') if brackets >= 2 => (Mode::Text, false),
+            (Mode::Cdata { brackets }, b']') => (
+                Mode::Cdata {
+                    brackets: brackets.saturating_add(1),
+                },
+                false,
+            ),
+            (Mode::Cdata { .. }, _) => (Mode::Cdata { brackets: 0 }, false),
+            (Mode::Decl, b'>') => (Mode::Text, false),
+            (Mode::Decl, _) => (Mode::Decl, false),
+        };
+        self.mode = mode;
+        done
+    }
+}
