@@ -34,6 +34,8 @@ pub mod codec;
 pub mod demo;
 pub mod engine;
 pub mod layout;
+#[cfg(feature = "net")]
+pub mod net;
 pub mod sample;
 pub mod schema;
 pub mod tcp;

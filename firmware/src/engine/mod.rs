@@ -182,6 +182,14 @@ where
         bump(&mut self.stats.framing_errors);
     }
 
+    /// A datagram longer than the receive buffer arrived (the transport
+    /// could not even read it whole): counted as a `TooLong` rejection.
+    pub fn datagram_too_long(&mut self) {
+        bump(&mut self.stats.received);
+        self.stats
+            .count_drop(DropReason::Decode(crate::codec::DecodeErrorKind::TooLong));
+    }
+
     /// One robot message from `from`, received at `received`. The reply
     /// (if any) is written to the start of `out`, which should be
     /// `layout::MAX_SEND_LEN` bytes.

@@ -1,0 +1,141 @@
+//! The UDP transport task every board runs (feature `net`): an
+//! `embassy-net` socket on the channel port, handing each datagram to the
+//! cycle engine and its reply back to the sender. The board supplies the
+//! network stack (its Ethernet driver) and the clock; nothing here names a
+//! chip, and the host tests run this very code over an in-memory Ethernet.
+
+use crate::engine::{Application, Clock, Endpoint, Engine, Instant, Outcome};
+use crate::schema::MessageCodec;
+use embassy_futures::select::{select, Either};
+use embassy_net::udp::{PacketMetadata, RecvError, UdpSocket};
+use embassy_net::{IpAddress, IpEndpoint, Stack};
+use embassy_time::{Duration, Timer};
+
+/// The device clock over `embassy-time` (microseconds since boot).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EmbassyClock;
+
+impl Clock for EmbassyClock {
+    fn now(&self) -> Instant {
+        Instant(embassy_time::Instant::now().as_micros())
+    }
+}
+
+/// How often the engine's time-driven work runs (TimeOut supervision,
+/// periodic sends): well inside the 4 ms robot cycle.
+pub const POLL_INTERVAL: Duration = Duration::from_micros(500);
+
+/// Socket queue depth: datagrams waiting in each direction.
+pub const QUEUE: usize = 4;
+
+/// Buffers of the UDP cycle task, all sized by the generated layout:
+/// `RX` = `layout::MAX_RECEIVE_LEN`, `TX` = `layout::MAX_SEND_LEN`.
+pub struct UdpBuffers<const RX: usize, const TX: usize> {
+    rx_meta: [PacketMetadata; QUEUE],
+    rx: [[u8; RX]; QUEUE],
+    tx_meta: [PacketMetadata; QUEUE],
+    tx: [[u8; TX]; QUEUE],
+    datagram: [u8; RX],
+    reply: [u8; TX],
+}
+
+impl<const RX: usize, const TX: usize> Default for UdpBuffers<RX, TX> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const RX: usize, const TX: usize> UdpBuffers<RX, TX> {
+    pub const fn new() -> Self {
+        UdpBuffers {
+            rx_meta: [PacketMetadata::EMPTY; QUEUE],
+            rx: [[0; RX]; QUEUE],
+            tx_meta: [PacketMetadata::EMPTY; QUEUE],
+            tx: [[0; TX]; QUEUE],
+            datagram: [0; RX],
+            reply: [0; TX],
+        }
+    }
+}
+
+fn endpoint(e: IpEndpoint) -> Option<Endpoint> {
+    match e.addr {
+        IpAddress::Ipv4(ip) => Some(Endpoint::new(ip.octets(), e.port)),
+        #[allow(unreachable_patterns)]
+        _ => None,
+    }
+}
+
+fn ip_endpoint(e: Endpoint) -> IpEndpoint {
+    IpEndpoint::new(IpAddress::v4(e.ip[0], e.ip[1], e.ip[2], e.ip[3]), e.port)
+}
+
+/// Runs the UDP cycle on `port` forever: receive → engine → reply, and the
+/// engine's time-driven work every [`POLL_INTERVAL`].
+pub async fn udp_cycle<Rx, Tx, A, C, const RX: usize, const TX: usize>(
+    stack: Stack<'_>,
+    port: u16,
+    engine: &mut Engine<Rx, Tx>,
+    app: &mut A,
+    clock: &C,
+    buffers: &mut UdpBuffers<RX, TX>,
+) -> !
+where
+    Rx: MessageCodec,
+    Tx: MessageCodec,
+    Rx::Data: Clone + Default,
+    Tx::Data: Default,
+    A: Application<Rx::Data, Tx::Data>,
+    C: Clock,
+{
+    let UdpBuffers {
+        rx_meta,
+        rx,
+        tx_meta,
+        tx,
+        datagram,
+        reply,
+    } = buffers;
+    let mut socket = UdpSocket::new(
+        stack,
+        rx_meta,
+        rx.as_flattened_mut(),
+        tx_meta,
+        tx.as_flattened_mut(),
+    );
+    if socket.bind(port).is_err() {
+        engine.init_failed();
+        // S2: ERROR 112600 for good; keep the engine's clock-driven work
+        // alive so the state stays readable.
+        loop {
+            Timer::after(POLL_INTERVAL).await;
+        }
+    }
+    engine.listening();
+    loop {
+        match select(socket.recv_from(datagram), Timer::after(POLL_INTERVAL)).await {
+            Either::First(Ok((len, meta))) => {
+                let received = clock.now();
+                let Some(from) = endpoint(meta.endpoint) else {
+                    continue;
+                };
+                let bytes = datagram.get(..len).unwrap_or(&[]);
+                if let Outcome::Reply { to, len } =
+                    engine.on_message(app, clock, from, bytes, received, reply)
+                {
+                    let _ = socket
+                        .send_to(reply.get(..len).unwrap_or(&[]), ip_endpoint(to))
+                        .await;
+                }
+            }
+            Either::First(Err(RecvError::Truncated)) => engine.datagram_too_long(),
+            Either::Second(()) => {
+                if let Some((to, len)) = engine.poll(app, clock, reply) {
+                    let _ = socket
+                        .send_to(reply.get(..len).unwrap_or(&[]), ip_endpoint(to))
+                        .await;
+                }
+            }
+        }
+    }
+}
