@@ -291,43 +291,38 @@ fn set_component(
             Some(slot) => *slot = real(value, at)?,
             None => return Ok(false),
         },
-        FieldMut::Reals(a) => {
-            let len = a.len();
-            match array_component(name, len).and_then(|i| a.get_mut(i)) {
-                Some(slot) => *slot = real(value, at)?,
-                None => return Ok(false),
-            }
-        }
-        FieldMut::Bools(a) => {
-            let len = a.len();
-            match array_component(name, len).and_then(|i| a.get_mut(i)) {
-                Some(slot) => *slot = boolean(value, at)?,
-                None => return Ok(false),
-            }
-        }
-        FieldMut::Times(a) => {
-            let len = a.len();
-            match array_component(name, len).and_then(|i| a.get_mut(i)) {
-                Some(slot) => *slot = time(value, at)?,
-                None => return Ok(false),
-            }
-        }
+        FieldMut::Reals(a) => return set_element(a, name, || real(value, at)),
+        FieldMut::Bools(a) => return set_element(a, name, || boolean(value, at)),
+        FieldMut::Times(a) => return set_element(a, name, || time(value, at)),
         FieldMut::Strs(a) => {
-            let len = a.len();
-            match array_component(name, len).and_then(|i| a.get_mut(i)) {
-                Some(slot) => {
-                    let mut s = RriString::new();
-                    if string(&mut s, value, at)? {
-                        bump(&mut tally.truncated_strings);
-                    }
-                    *slot = s;
+            return set_element(a, name, || {
+                let mut s = RriString::new();
+                if string(&mut s, value, at)? {
+                    bump(&mut tally.truncated_strings);
                 }
-                None => return Ok(false),
-            }
+                Ok(s)
+            })
         }
         _ => return Ok(false),
     }
     Ok(true)
+}
+
+/// Sets array element `X<i>` (M4) to what `parse` makes of the value;
+/// `Ok(false)` when the array has no such element.
+fn set_element<T>(
+    array: &mut [T],
+    name: &[u8],
+    parse: impl FnOnce() -> Result<T, DecodeError>,
+) -> Result<bool, DecodeError> {
+    let len = array.len();
+    match array_component(name, len).and_then(|i| array.get_mut(i)) {
+        Some(slot) => {
+            *slot = parse()?;
+            Ok(true)
+        }
+        None => Ok(false),
+    }
 }
 
 /// Number of attributes a multi-value slot has, `None` for text values.

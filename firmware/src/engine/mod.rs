@@ -204,10 +204,9 @@ where
     ) -> Outcome {
         bump(&mut self.stats.received);
         match self.handle(app, clock, from, bytes, received, out) {
-            Ok((len, id)) => {
+            Ok(len) => {
                 bump(&mut self.stats.sent);
                 bump(&mut self.stats.answered);
-                let _ = id;
                 self.stats
                     .latency
                     .record(clock.now().micros_since(received));
@@ -228,7 +227,7 @@ where
         bytes: &[u8],
         received: Instant,
         out: &mut [u8],
-    ) -> Result<(usize, u32), DropReason> {
+    ) -> Result<usize, DropReason> {
         if self.peers.admit(from, received) == Admit::Foreign {
             return Err(DropReason::ForeignSource);
         }
@@ -264,8 +263,7 @@ where
             stats: &self.stats,
         };
         app.cycle(&self.robot, &mut self.reply, &info);
-        let len = self.encode_reply(decoded.id, clock.now(), out)?;
-        Ok((len, decoded.id))
+        self.encode_reply(decoded.id, clock.now(), out)
     }
 
     /// S3 accounting and the S2 transitions a good message drives.
