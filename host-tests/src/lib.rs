@@ -11,6 +11,8 @@ pub mod layouts {
     include!(concat!(env!("OUT_DIR"), "/layouts.rs"));
 }
 
+pub mod sensor;
+
 use std::path::PathBuf;
 
 /// The workspace root.

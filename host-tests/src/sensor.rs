@@ -1,0 +1,374 @@
+//! The host build of the sensor: the firmware's own cycle engine and demo
+//! application behind std sockets, for integrators without hardware (point
+//! a RobotStudio virtual controller or the robot simulator at it). Not a
+//! re-implementation: every message goes through `rri_firmware::engine`.
+
+use rri_firmware::demo::{simulated_distance, DemoApp};
+use rri_firmware::engine::{
+    Clock, Config, Endpoint, ErrorCode, Instant, Outcome, SensorState, Stats,
+};
+use rri_firmware::layout::{self, DeviceEngine};
+use rri_firmware::sample::{Reading, SampleCell};
+use rri_firmware::tcp::Framer;
+use std::io::{self, ErrorKind, Read, Write};
+use std::net::{SocketAddr, TcpListener, TcpStream, UdpSocket};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Sender;
+use std::time::Duration;
+
+/// Device time on the host: microseconds since the sensor started.
+#[derive(Clone, Copy, Debug)]
+pub struct HostClock {
+    start: std::time::Instant,
+}
+
+impl HostClock {
+    pub fn new() -> Self {
+        HostClock {
+            start: std::time::Instant::now(),
+        }
+    }
+}
+
+impl Default for HostClock {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Clock for HostClock {
+    fn now(&self) -> Instant {
+        Instant(self.start.elapsed().as_micros() as u64)
+    }
+}
+
+/// How to run the host sensor.
+#[derive(Clone, Debug)]
+pub struct SensorOptions {
+    pub listen: SocketAddr,
+    /// TCP instead of UDP (M10 framing).
+    pub tcp: bool,
+    /// The engine's settings: `layout::ENGINE_CONFIG` unless overridden.
+    pub config: Config,
+    /// Print a statistics line this often (`None`: never).
+    pub stats_every: Option<Duration>,
+}
+
+impl SensorOptions {
+    /// The built configuration: its address, port, protocol and settings.
+    pub fn from_layout() -> Self {
+        SensorOptions {
+            listen: SocketAddr::from((
+                layout::NETWORK_IPV4.unwrap_or([0, 0, 0, 0]),
+                layout::CHANNEL_PORT,
+            )),
+            tcp: !layout::CHANNEL_PROTOCOL.is_udp(),
+            config: layout::ENGINE_CONFIG,
+            stats_every: Some(Duration::from_secs(1)),
+        }
+    }
+}
+
+/// What a run leaves behind.
+#[derive(Clone, Debug)]
+pub struct SensorReport {
+    pub stats: Stats,
+    pub state: SensorState,
+    /// Every state the engine went through, with the time (s) it was entered.
+    pub states: Vec<(f64, SensorState, Option<ErrorCode>)>,
+}
+
+fn state_text(state: SensorState, error: Option<ErrorCode>) -> String {
+    match error {
+        Some(e) => format!("{} {}", state.name(), e.code()),
+        None => state.name().to_string(),
+    }
+}
+
+/// One statistics line (also the summary's body).
+pub fn stats_line(s: &Stats) -> String {
+    let h = &s.latency;
+    let mean = if h.count > 0 {
+        h.total_us as f64 / f64::from(h.count)
+    } else {
+        0.0
+    };
+    format!(
+        "received {} answered {} periodic {} | dropped: foreign {} decode {} | lost {} dup {} reordered {} | timeouts {} max-lost {} | latency us min {} mean {:.0} max {}",
+        s.received,
+        s.answered,
+        s.periodic_sent,
+        s.dropped_foreign,
+        s.dropped_decode,
+        s.lost,
+        s.duplicates,
+        s.reordered,
+        s.timeouts,
+        s.max_lost_exceeded,
+        if h.count > 0 { h.min_us } else { 0 },
+        mean,
+        h.max_us,
+    )
+}
+
+fn endpoint(addr: SocketAddr) -> Option<Endpoint> {
+    match addr {
+        SocketAddr::V4(a) => Some(Endpoint::new(a.ip().octets(), a.port())),
+        SocketAddr::V6(_) => None,
+    }
+}
+
+/// Engine, application and bookkeeping of one run.
+struct Sensor<'a, 'w> {
+    engine: DeviceEngine,
+    app: DemoApp<'a>,
+    clock: HostClock,
+    out: [u8; layout::MAX_SEND_LEN],
+    states: Vec<(f64, SensorState, Option<ErrorCode>)>,
+    log: &'w mut dyn Write,
+    last_stats: std::time::Instant,
+    stats_every: Option<Duration>,
+}
+
+impl Sensor<'_, '_> {
+    /// Logs a state change, if there was one.
+    fn note_state(&mut self) {
+        let now = (self.engine.state(), self.engine.error_code());
+        if self.states.last().map(|s| (s.1, s.2)) != Some(now) {
+            let t = self.clock.now().as_micros() as f64 / 1e6;
+            let _ = writeln!(self.log, "[{t:9.3}s] state {}", state_text(now.0, now.1));
+            self.states.push((t, now.0, now.1));
+        }
+    }
+
+    fn tick(&mut self) {
+        if let Some(every) = self.stats_every {
+            if self.last_stats.elapsed() >= every {
+                self.last_stats = std::time::Instant::now();
+                let _ = writeln!(self.log, "{}", stats_line(&self.engine.stats()));
+            }
+        }
+    }
+
+    fn message(
+        &mut self,
+        from: Endpoint,
+        bytes: &[u8],
+        received: Instant,
+    ) -> Option<(Endpoint, usize)> {
+        let outcome = self.engine.on_message(
+            &mut self.app,
+            &self.clock,
+            from,
+            bytes,
+            received,
+            &mut self.out,
+        );
+        self.note_state();
+        match outcome {
+            Outcome::Reply { to, len } => Some((to, len)),
+            Outcome::Dropped(_) => None,
+        }
+    }
+
+    fn poll(&mut self) -> Option<(Endpoint, usize)> {
+        let r = self.engine.poll(&mut self.app, &self.clock, &mut self.out);
+        self.note_state();
+        self.tick();
+        r
+    }
+}
+
+/// Runs the host sensor until `stop` is set. `ready` receives the bound
+/// address (useful with port 0). Log lines (state changes, statistics) go
+/// to `log`.
+pub fn run(
+    opts: &SensorOptions,
+    stop: &AtomicBool,
+    ready: Option<Sender<SocketAddr>>,
+    log: &mut dyn Write,
+) -> io::Result<SensorReport> {
+    let cell = SampleCell::<1>::new();
+    let Some((mut sampler, reader)) = cell.split() else {
+        return Err(io::Error::other("sample cell already split"));
+    };
+    let clock = HostClock::new();
+    let mut sensor = Sensor {
+        engine: DeviceEngine::new(opts.config),
+        app: DemoApp::new(reader),
+        clock,
+        out: [0; layout::MAX_SEND_LEN],
+        states: Vec::new(),
+        log,
+        last_stats: std::time::Instant::now(),
+        stats_every: opts.stats_every,
+    };
+    sensor.note_state();
+    let result = std::thread::scope(|s| {
+        // The sampler: a distance reading every millisecond, published
+        // without ever blocking the cycle.
+        s.spawn(|| {
+            while !stop.load(Ordering::Relaxed) {
+                let now = clock.now();
+                sampler.publish(&Reading {
+                    values: [simulated_distance(now)],
+                    time: now,
+                });
+                std::thread::sleep(Duration::from_millis(1));
+            }
+        });
+        let r = if opts.tcp {
+            serve_tcp(&mut sensor, opts, stop, ready)
+        } else {
+            serve_udp(&mut sensor, opts, stop, ready)
+        };
+        stop.store(true, Ordering::Relaxed);
+        r
+    });
+    if let Err(e) = result {
+        sensor.engine.init_failed();
+        sensor.note_state();
+        return Err(e);
+    }
+    let stats = sensor.engine.stats();
+    let _ = writeln!(sensor.log, "summary: {}", stats_line(&stats));
+    Ok(SensorReport {
+        stats,
+        state: sensor.engine.state(),
+        states: sensor.states,
+    })
+}
+
+fn serve_udp(
+    sensor: &mut Sensor<'_, '_>,
+    opts: &SensorOptions,
+    stop: &AtomicBool,
+    ready: Option<Sender<SocketAddr>>,
+) -> io::Result<()> {
+    let socket = UdpSocket::bind(opts.listen)?;
+    socket.set_read_timeout(Some(Duration::from_micros(500)))?;
+    let local = socket.local_addr()?;
+    let _ = writeln!(
+        sensor.log,
+        "listening on udp {local} (device {})",
+        layout::DEVICE_NAME
+    );
+    sensor.engine.listening();
+    sensor.note_state();
+    if let Some(tx) = ready {
+        let _ = tx.send(local);
+    }
+    // One byte more than the layout allows, so a longer datagram is seen
+    // as too long rather than silently cut.
+    let mut buf = [0u8; layout::MAX_RECEIVE_LEN + 1];
+    while !stop.load(Ordering::Relaxed) {
+        match socket.recv_from(&mut buf) {
+            Ok((n, from)) => {
+                let received = sensor.clock.now();
+                let Some(from) = endpoint(from) else { continue };
+                if let Some((to, len)) = sensor.message(from, buf.get(..n).unwrap_or(&[]), received)
+                {
+                    socket.send_to(&sensor.out[..len], SocketAddr::from((to.ip, to.port)))?;
+                }
+            }
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+            // ICMP port unreachable from a robot that went away.
+            Err(e) if e.kind() == ErrorKind::ConnectionReset => {}
+            Err(e) => return Err(e),
+        }
+        if let Some((to, len)) = sensor.poll() {
+            let _ = socket.send_to(&sensor.out[..len], SocketAddr::from((to.ip, to.port)));
+        }
+    }
+    Ok(())
+}
+
+fn serve_tcp(
+    sensor: &mut Sensor<'_, '_>,
+    opts: &SensorOptions,
+    stop: &AtomicBool,
+    ready: Option<Sender<SocketAddr>>,
+) -> io::Result<()> {
+    let listener = TcpListener::bind(opts.listen)?;
+    listener.set_nonblocking(true)?;
+    let local = listener.local_addr()?;
+    let _ = writeln!(
+        sensor.log,
+        "listening on tcp {local} (device {})",
+        layout::DEVICE_NAME
+    );
+    if let Some(tx) = ready {
+        let _ = tx.send(local);
+    }
+    while !stop.load(Ordering::Relaxed) {
+        match listener.accept() {
+            Ok((stream, peer)) => {
+                let _ = writeln!(sensor.log, "connection from {peer}");
+                sensor.engine.listening();
+                sensor.note_state();
+                connection(sensor, stream, peer, stop)?;
+                sensor.engine.peer_closed();
+                sensor.note_state();
+            }
+            Err(e) if e.kind() == ErrorKind::WouldBlock => {
+                let _ = sensor.poll();
+                std::thread::sleep(Duration::from_micros(500));
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
+}
+
+/// One TCP connection: framed messages in (M10), replies out, until the
+/// peer closes, a framing error, or stop.
+fn connection(
+    sensor: &mut Sensor<'_, '_>,
+    mut stream: TcpStream,
+    peer: SocketAddr,
+    stop: &AtomicBool,
+) -> io::Result<()> {
+    stream.set_nonblocking(false)?;
+    stream.set_read_timeout(Some(Duration::from_micros(500)))?;
+    stream.set_nodelay(true)?;
+    let Some(from) = endpoint(peer) else {
+        return Ok(());
+    };
+    let mut framer = Framer::<{ layout::MAX_RECEIVE_LEN }>::new();
+    let mut chunk = [0u8; 4096];
+    let mut replies: Vec<Vec<u8>> = Vec::new();
+    while !stop.load(Ordering::Relaxed) {
+        match stream.read(&mut chunk) {
+            Ok(0) => return Ok(()),
+            Ok(n) => {
+                let received = sensor.clock.now();
+                let framed = framer.push(&chunk[..n], |m| {
+                    if let Some((_, len)) = sensor.message(from, m, received) {
+                        replies.push(sensor.out[..len].to_vec());
+                    }
+                });
+                for r in replies.drain(..) {
+                    stream.write_all(&r)?;
+                }
+                if framed.is_err() {
+                    let _ = writeln!(
+                        sensor.log,
+                        "framing error: message longer than {} bytes; closing",
+                        layout::MAX_RECEIVE_LEN
+                    );
+                    sensor.engine.framing_error();
+                    return Ok(());
+                }
+            }
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+            Err(e) if matches!(e.kind(), ErrorKind::ConnectionReset | ErrorKind::BrokenPipe) => {
+                return Ok(())
+            }
+            Err(e) => return Err(e),
+        }
+        if let Some((_, len)) = sensor.poll() {
+            stream.write_all(&sensor.out[..len])?;
+        }
+    }
+    Ok(())
+}
