@@ -53,7 +53,7 @@ fn parse(args: &[String]) -> Result<SensorOptions, String> {
                 let ms: u32 = value(i)?
                     .parse()
                     .map_err(|_| "--send-period-ms: a number")?;
-                if ms % 4 != 0 {
+                if !ms.is_multiple_of(4) {
                     return Err("--send-period-ms must be a multiple of 4".into());
                 }
                 o.config.send_period_ms = ms;
