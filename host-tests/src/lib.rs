@@ -11,6 +11,7 @@ pub mod layouts {
     include!(concat!(env!("OUT_DIR"), "/layouts.rs"));
 }
 
+pub mod robot;
 pub mod sensor;
 
 use std::path::PathBuf;

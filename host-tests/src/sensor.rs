@@ -271,7 +271,11 @@ fn serve_udp(
                     socket.send_to(&sensor.out[..len], SocketAddr::from((to.ip, to.port)))?;
                 }
             }
-            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    ErrorKind::WouldBlock | ErrorKind::TimedOut | ErrorKind::Interrupted
+                ) => {}
             // ICMP port unreachable from a robot that went away.
             Err(e) if e.kind() == ErrorKind::ConnectionReset => {}
             Err(e) => return Err(e),
@@ -310,7 +314,7 @@ fn serve_tcp(
                 sensor.engine.peer_closed();
                 sensor.note_state();
             }
-            Err(e) if e.kind() == ErrorKind::WouldBlock => {
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::Interrupted) => {
                 let _ = sensor.poll();
                 std::thread::sleep(Duration::from_micros(500));
             }
@@ -360,7 +364,11 @@ fn connection(
                     return Ok(());
                 }
             }
-            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    ErrorKind::WouldBlock | ErrorKind::TimedOut | ErrorKind::Interrupted
+                ) => {}
             Err(e) if matches!(e.kind(), ErrorKind::ConnectionReset | ErrorKind::BrokenPipe) => {
                 return Ok(())
             }

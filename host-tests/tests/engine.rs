@@ -297,13 +297,17 @@ fn peer_lock_on_first_valid_message_and_foreign_sources_dropped() {
 #[test]
 fn peer_new_port_takes_over_at_once() {
     let mut rig = Rig::new(config());
-    rig.send(ROBOT, 1, 0);
+    rig.send(ROBOT, 100, 0);
     let reconnected = Endpoint::new(ROBOT.ip, 50_001);
-    let Outcome::Reply { to, .. } = rig.send(reconnected, 2, 4) else {
+    let Outcome::Reply { to, .. } = rig.send(reconnected, 1, 4) else {
         panic!()
     };
     assert_eq!(to, reconnected);
     assert_eq!(rig.engine.stats().port_takeovers, 1);
+    // A reconnected controller starts its Ids again: not reordering (S3).
+    rig.send(reconnected, 2, 8);
+    let s = rig.engine.stats();
+    assert_eq!((s.reordered, s.duplicates, s.lost), (0, 0, 0));
 }
 
 #[test]

@@ -243,7 +243,11 @@ where
                 bump(&mut self.stats.peer_locked);
                 self.ids.reset();
             }
-            PeerChange::PortTakeover => bump(&mut self.stats.port_takeovers),
+            PeerChange::PortTakeover => {
+                // A controller that reconnected starts a new Id sequence.
+                bump(&mut self.stats.port_takeovers);
+                self.ids.reset();
+            }
             PeerChange::Takeover => {
                 bump(&mut self.stats.peer_takeovers);
                 self.ids.reset();

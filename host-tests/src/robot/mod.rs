@@ -1,0 +1,606 @@
+//! The robot-controller simulator: plays the IRC5 side of RRI as the manual
+//! describes, against any sensor, from a GSI folder read at run time.
+//!
+//! Every `rate` ms it sends the controller's property with changing data,
+//! checks each reply (M8 Id echo, root and fields against the layout,
+//! decodable values), supervises like the controller (S1: `TimeOut`,
+//! `MaxLost`, `DryRun`), and summarises: sent, answered, late, lost, wrong
+//! Id, malformed, latency percentiles.
+
+pub mod fault;
+pub mod motion;
+pub mod numbers;
+pub mod report;
+pub mod wire;
+
+use fault::{Fault, Faults};
+use gsi_config::{Device, Property};
+use motion::Motion;
+use report::{Cycle, Latency, Packet, Summary};
+use std::collections::HashMap;
+use std::io::{ErrorKind, Read, Write};
+use std::net::{SocketAddr, TcpStream, UdpSocket};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc};
+use std::time::{Duration, Instant};
+
+/// Everything `cargo robot` takes.
+#[derive(Clone, Debug)]
+pub struct RobotOptions {
+    pub gsi: PathBuf,
+    pub device: Option<String>,
+    pub to: SocketAddr,
+    pub cycles: u64,
+    /// Send period, a multiple of 4 ms.
+    pub rate_ms: u32,
+    /// `false`: send the next message as soon as the last one is answered
+    /// (tests); latencies still count as late beyond one `rate_ms` cycle.
+    pub pacing: bool,
+    pub tcp: bool,
+    pub csv: Option<PathBuf>,
+    pub plot: Option<PathBuf>,
+    pub pcap: Option<PathBuf>,
+    pub json: Option<PathBuf>,
+    pub faults: Vec<Fault>,
+    pub seed: u64,
+    /// Id of the first message (to test the u32 wrap, S3).
+    pub first_id: u32,
+    pub progress: bool,
+}
+
+impl RobotOptions {
+    pub fn new(gsi: PathBuf, to: SocketAddr) -> Self {
+        RobotOptions {
+            gsi,
+            device: None,
+            to,
+            cycles: 1000,
+            rate_ms: 4,
+            pacing: true,
+            tcp: false,
+            csv: None,
+            plot: None,
+            pcap: None,
+            json: None,
+            faults: Vec::new(),
+            seed: 1,
+            first_id: 1,
+            progress: false,
+        }
+    }
+}
+
+/// The controller's supervision (S1) and state as it would show in RAPID.
+struct Supervision {
+    dry_run: bool,
+    timeout: Duration,
+    max_lost: u32,
+    in_row: u32,
+    tripped: Option<String>,
+    operating: bool,
+    last_answer: Option<Instant>,
+}
+
+/// A message waiting for its reply.
+struct Waiting {
+    index: usize,
+    sent: Instant,
+    /// Replies still expected (2 for a duplicated message).
+    expected: u8,
+    answered: bool,
+}
+
+/// What the receiver threads hand over: a reply and when it arrived.
+enum Event {
+    Data(Vec<u8>, SocketAddr, Instant),
+    Closed,
+}
+
+/// The transport to the sensor. Receiving runs on threads that block on
+/// their socket and timestamp each reply the moment it arrives; the main
+/// loop waits on a channel with precise timeouts (a socket's own receive
+/// timeout is only as fine as the kernel tick).
+struct Link {
+    udp: Option<(UdpSocket, Option<UdpSocket>)>,
+    tcp: Option<TcpStream>,
+    events: mpsc::Receiver<Event>,
+    stop: Arc<AtomicBool>,
+    threads: Vec<std::thread::JoinHandle<()>>,
+    closed: bool,
+}
+
+impl Link {
+    fn udp(to: SocketAddr, second_port: bool) -> std::io::Result<Link> {
+        let (tx, events) = mpsc::channel();
+        let stop = Arc::new(AtomicBool::new(false));
+        let main = UdpSocket::bind(local_for(to))?;
+        let second = if second_port {
+            Some(UdpSocket::bind(local_for(to))?)
+        } else {
+            None
+        };
+        let mut threads = Vec::new();
+        for sock in std::iter::once(&main).chain(second.as_ref()) {
+            let sock = sock.try_clone()?;
+            sock.set_read_timeout(Some(Duration::from_millis(20)))?;
+            let local = sock.local_addr()?;
+            let (tx, stop) = (tx.clone(), stop.clone());
+            threads.push(std::thread::spawn(move || {
+                let mut buf = vec![0u8; 65_536];
+                while !stop.load(Ordering::Relaxed) {
+                    if let Ok((n, _)) = sock.recv_from(&mut buf) {
+                        let at = Instant::now();
+                        if tx.send(Event::Data(buf[..n].to_vec(), local, at)).is_err() {
+                            return;
+                        }
+                    }
+                }
+            }));
+        }
+        Ok(Link {
+            udp: Some((main, second)),
+            tcp: None,
+            events,
+            stop,
+            threads,
+            closed: false,
+        })
+    }
+
+    fn tcp(to: SocketAddr) -> std::io::Result<Link> {
+        let (tx, events) = mpsc::channel();
+        let stop = Arc::new(AtomicBool::new(false));
+        let stream = TcpStream::connect_timeout(&to, Duration::from_secs(2))?;
+        stream.set_nodelay(true)?;
+        let mut reader = stream.try_clone()?;
+        reader.set_read_timeout(Some(Duration::from_millis(20)))?;
+        let local = stream.local_addr()?;
+        let flag = stop.clone();
+        let thread = std::thread::spawn(move || {
+            let mut framer = Box::new(rri_firmware::tcp::Framer::<65_536>::new());
+            let mut chunk = [0u8; 8192];
+            while !flag.load(Ordering::Relaxed) {
+                match reader.read(&mut chunk) {
+                    Ok(0) => {
+                        let _ = tx.send(Event::Closed);
+                        return;
+                    }
+                    Ok(n) => {
+                        let at = Instant::now();
+                        let _ = framer.push(&chunk[..n], |m| {
+                            let _ = tx.send(Event::Data(m.to_vec(), local, at));
+                        });
+                    }
+                    Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+                    Err(_) => {
+                        let _ = tx.send(Event::Closed);
+                        return;
+                    }
+                }
+            }
+        });
+        Ok(Link {
+            udp: None,
+            tcp: Some(stream),
+            events,
+            stop,
+            threads: vec![thread],
+            closed: false,
+        })
+    }
+}
+
+impl Drop for Link {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+}
+
+struct Sim<'a> {
+    opts: &'a RobotOptions,
+    device: &'a Device,
+    reply_prop: &'a Property,
+    link: Link,
+    start: Instant,
+    cycles: Vec<Cycle>,
+    waiting: HashMap<u32, Waiting>,
+    sup: Supervision,
+    s: Summary,
+    packets: Vec<Packet>,
+    log: &'a mut dyn Write,
+}
+
+fn local_for(to: SocketAddr) -> SocketAddr {
+    if to.ip().is_loopback() {
+        SocketAddr::from(([127, 0, 0, 1], 0))
+    } else {
+        SocketAddr::from(([0, 0, 0, 0], 0))
+    }
+}
+
+impl Sim<'_> {
+    fn us(&self, t: Instant) -> u64 {
+        t.duration_since(self.start).as_micros() as u64
+    }
+
+    fn transition(&mut self, what: &str) {
+        let t = self.start.elapsed().as_secs_f64();
+        let _ = writeln!(self.log, "[{t:9.3}s] controller: {what}");
+    }
+
+    fn trip(&mut self, reason: String) {
+        if self.sup.dry_run || self.sup.tripped.is_some() {
+            return;
+        }
+        self.transition(&format!("ERROR 112602 ({reason})"));
+        self.sup.tripped = Some(reason);
+        self.sup.operating = false;
+    }
+
+    fn send(&mut self, bytes: &[u8], second: bool) -> Result<(), String> {
+        let now = Instant::now();
+        let (from, r) = if let Some((main, s2)) = &self.link.udp {
+            let sock = match (second, s2) {
+                (true, Some(s)) => s,
+                _ => main,
+            };
+            (
+                sock.local_addr().ok(),
+                sock.send_to(bytes, self.opts.to).map(|_| ()),
+            )
+        } else if let Some(stream) = &mut self.link.tcp {
+            if self.link.closed {
+                return Ok(());
+            }
+            (stream.local_addr().ok(), stream.write_all(bytes))
+        } else {
+            return Ok(());
+        };
+        if let Err(e) = r {
+            if !matches!(
+                e.kind(),
+                ErrorKind::ConnectionRefused
+                    | ErrorKind::WouldBlock
+                    | ErrorKind::BrokenPipe
+                    | ErrorKind::ConnectionReset
+            ) {
+                return Err(format!("cannot send to {}: {e}", self.opts.to));
+            }
+        }
+        if self.opts.pcap.is_some() {
+            let at_us = self.us(now);
+            self.packets.push(Packet {
+                at_us,
+                from: from.unwrap_or(self.opts.to),
+                to: self.opts.to,
+                payload: bytes.to_vec(),
+            });
+        }
+        Ok(())
+    }
+
+    fn handle_reply(&mut self, bytes: &[u8], local: SocketAddr, at: Instant) {
+        if self.opts.pcap.is_some() {
+            let at_us = self.us(at);
+            self.packets.push(Packet {
+                at_us,
+                from: self.opts.to,
+                to: local,
+                payload: bytes.to_vec(),
+            });
+        }
+        let reply = match wire::check_reply(self.device, self.reply_prop, bytes) {
+            Ok(r) => r,
+            Err(e) => {
+                self.s.malformed += 1;
+                self.s.first_error.get_or_insert(e);
+                return;
+            }
+        };
+        let Some(w) = self.waiting.get_mut(&reply.id) else {
+            self.s.wrong_id += 1;
+            self.s.first_error.get_or_insert_with(|| {
+                format!("reply with Id {} to no message sent (M8)", reply.id)
+            });
+            return;
+        };
+        w.expected = w.expected.saturating_sub(1);
+        if w.answered {
+            self.s.duplicate_replies += 1;
+        } else {
+            w.answered = true;
+            let index = w.index;
+            let sent = w.sent;
+            self.cycles[index].reply_us = Some(self.us(at));
+            self.s.answered += 1;
+            if at.duration_since(sent) > Duration::from_millis(u64::from(self.opts.rate_ms)) {
+                self.s.late += 1;
+            }
+            self.sup.last_answer = Some(at);
+            if !self.sup.operating && self.sup.tripped.is_none() {
+                self.sup.operating = true;
+                self.transition("OPERATING (first answer)");
+            }
+        }
+        if self.waiting.get(&reply.id).is_some_and(|w| w.expected == 0) {
+            self.waiting.remove(&reply.id);
+        }
+    }
+
+    /// S1 TimeOut: messages wait and nothing has been answered for longer.
+    fn check_timeout(&mut self, now: Instant) {
+        let oldest = self
+            .waiting
+            .values()
+            .filter(|w| !w.answered)
+            .map(|w| w.sent)
+            .min();
+        if let Some(oldest) = oldest {
+            let since = self.sup.last_answer.map_or(oldest, |a| a.max(oldest));
+            if now.duration_since(since) > self.sup.timeout {
+                let ms = self.sup.timeout.as_millis();
+                self.trip(format!("no answer within TimeOut = {ms} ms"));
+            }
+        }
+    }
+
+    /// Receives and checks replies until `until`, or until message `id`
+    /// is answered when given.
+    fn pump(&mut self, until: Instant, id: Option<u32>) {
+        loop {
+            let now = Instant::now();
+            self.check_timeout(now);
+            if id.is_some_and(|id| self.waiting.get(&id).is_none_or(|w| w.answered)) || now >= until
+            {
+                return;
+            }
+            if self.link.closed {
+                self.trip("the sensor closed the TCP connection".into());
+                return;
+            }
+            // Wake at least every 2 ms for the TimeOut check.
+            let wait = (until - now).min(Duration::from_millis(2));
+            match self.link.events.recv_timeout(wait) {
+                Ok(Event::Data(bytes, local, at)) => self.handle_reply(&bytes, local, at),
+                Ok(Event::Closed) => self.link.closed = true,
+                Err(_) => {}
+            }
+        }
+    }
+}
+
+/// Loads the device or says exactly why not.
+pub fn load(opts: &RobotOptions) -> Result<Device, String> {
+    gsi_config::load(&opts.gsi, opts.device.as_deref())
+        .map(|l| l.device)
+        .map_err(|f| f.to_string())
+}
+
+/// Runs the simulation; `log` gets state transitions.
+pub fn run(
+    opts: &RobotOptions,
+    device: &Device,
+    log: &mut dyn Write,
+) -> Result<(Summary, Vec<Cycle>), String> {
+    if opts.rate_ms == 0 || !opts.rate_ms.is_multiple_of(4) {
+        return Err(format!(
+            "--rate-ms {}: must be a positive multiple of 4 (the controller's cycle)",
+            opts.rate_ms
+        ));
+    }
+    let robot_prop = device.received().next().ok_or(
+        "the configuration has no property the controller sends (Flag WriteOnly or ReadWrite)",
+    )?;
+    let reply_prop = device
+        .sent()
+        .next()
+        .ok_or("the configuration has no property the device sends (Flag ReadOnly or ReadWrite)")?;
+    let faults = Faults::new(opts.faults.clone(), opts.seed);
+    if opts.tcp {
+        if let Some(f) = faults.udp_only() {
+            return Err(format!("--fault {f:?} only works over UDP"));
+        }
+    }
+    let link = if opts.tcp {
+        Link::tcp(opts.to).map_err(|e| format!("cannot connect to {} over TCP: {e}", opts.to))?
+    } else {
+        let second = opts
+            .faults
+            .iter()
+            .any(|f| matches!(f, Fault::SecondPort { .. }));
+        Link::udp(opts.to, second).map_err(|e| format!("cannot open a UDP socket: {e}"))?
+    };
+    let start = Instant::now();
+    let start_unix_us = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_micros() as u64)
+        .unwrap_or(0);
+    let mut sim = Sim {
+        opts,
+        device,
+        reply_prop,
+        link,
+        start,
+        cycles: Vec::with_capacity(opts.cycles as usize),
+        waiting: HashMap::new(),
+        sup: Supervision {
+            dry_run: device.supervision.dry_run,
+            timeout: Duration::from_millis(u64::from(device.supervision.timeout_ms)),
+            max_lost: device.supervision.max_lost,
+            in_row: 0,
+            tripped: None,
+            operating: false,
+            last_answer: None,
+        },
+        s: Summary {
+            device: device.name.clone(),
+            target: opts.to.to_string(),
+            transport: if opts.tcp { "TCP" } else { "UDP" }.into(),
+            rate_ms: opts.rate_ms,
+            cycles: opts.cycles,
+            ..Summary::default()
+        },
+        packets: Vec::new(),
+        log,
+    };
+    sim.transition(&format!(
+        "CONNECTED to {} ({}, {} over {}, DryRun={}, TimeOut={} ms, MaxLost={})",
+        device.name,
+        opts.to,
+        robot_prop.wire(),
+        sim.s.transport,
+        device.supervision.dry_run,
+        device.supervision.timeout_ms,
+        device.supervision.max_lost
+    ));
+    let bar = if opts.progress {
+        let bar = indicatif::ProgressBar::new(opts.cycles);
+        if let Ok(style) = indicatif::ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:32}] {pos}/{len} cycles, {per_sec} {msg}",
+        ) {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        bar
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+
+    let motion = Motion::new(device);
+    let mut faults = faults;
+    let rate = Duration::from_millis(u64::from(opts.rate_ms));
+    let mut schedule = start;
+    let mut held: Option<(u32, String, bool)> = None;
+    let mut previous: Option<u32> = None;
+    for c in 0..opts.cycles {
+        let plan = faults.plan(c);
+        if plan.pause_ms > 0 {
+            sim.transition(&format!("pausing {} ms (fault)", plan.pause_ms));
+            let resume = Instant::now() + Duration::from_millis(plan.pause_ms);
+            sim.pump(resume, None);
+            schedule = Instant::now();
+        }
+        if opts.pacing {
+            sim.pump(schedule, None);
+            schedule += rate;
+        }
+        // S1 at send time: was the last message answered within its cycle?
+        if let Some(prev) = previous.take() {
+            let answered = sim.waiting.get(&prev).is_none_or(|w| w.answered);
+            sim.sup.in_row = if answered { 0 } else { sim.sup.in_row + 1 };
+            if sim.sup.in_row > sim.sup.max_lost {
+                let n = sim.sup.max_lost;
+                sim.trip(format!(
+                    "more than MaxLost = {n} messages in a row unanswered"
+                ));
+            }
+        }
+        let id = opts.first_id.wrapping_add(c as u32);
+        let t = start.elapsed().as_secs_f64();
+        let msg = wire::robot_message(device, robot_prop, id, Motion::now(t), |f| {
+            motion.value(f, c, t)
+        });
+        let now = Instant::now();
+        let index = sim.cycles.len();
+        sim.cycles.push(Cycle {
+            cycle: c,
+            id,
+            sent_us: sim.us(now),
+            reply_us: None,
+            dropped_by_fault: plan.drop,
+        });
+        if plan.drop {
+            continue;
+        }
+        sim.waiting.insert(
+            id,
+            Waiting {
+                index,
+                sent: now,
+                expected: if plan.duplicate { 2 } else { 1 },
+                answered: false,
+            },
+        );
+        sim.s.sent += 1;
+        previous = Some(id);
+        if plan.reorder && held.is_none() {
+            held = Some((id, msg, plan.second_port));
+        } else {
+            sim.send(msg.as_bytes(), plan.second_port)?;
+            if plan.duplicate {
+                sim.send(msg.as_bytes(), plan.second_port)?;
+            }
+            if let Some((held_id, m, second)) = held.take() {
+                if let Some(w) = sim.waiting.get_mut(&held_id) {
+                    w.sent = Instant::now();
+                }
+                sim.send(m.as_bytes(), second)?;
+            }
+        }
+        if plan.garbage {
+            sim.send(b"\x01\x02<<garbage>>&&", plan.second_port)?;
+        }
+        if plan.oversize {
+            let big = format!(
+                "<{} Id=\"{id}\">{}</{}>",
+                robot_prop.wire(),
+                " ".repeat(9000),
+                robot_prop.wire()
+            );
+            sim.send(big.as_bytes(), plan.second_port)?;
+        }
+        if !opts.pacing && held.is_none() {
+            sim.pump(
+                Instant::now() + Duration::from_millis(200).max(rate),
+                Some(id),
+            );
+        }
+        if c % 50 == 0 {
+            bar.set_position(c);
+            bar.set_message(format!(
+                "answered {} late {} lost {}",
+                sim.s.answered,
+                sim.s.late,
+                sim.s.sent - sim.s.answered
+            ));
+        }
+    }
+    if let Some((_, m, second)) = held.take() {
+        sim.send(m.as_bytes(), second)?;
+    }
+    // Collect the last replies.
+    let drain = Instant::now() + rate.max(Duration::from_millis(200));
+    while !sim.waiting.values().all(|w| w.answered) && Instant::now() < drain {
+        sim.pump(drain.min(Instant::now() + rate), None);
+    }
+    bar.finish_and_clear();
+
+    let mut s = sim.s.clone();
+    s.lost = sim
+        .cycles
+        .iter()
+        .filter(|c| !c.dropped_by_fault && c.reply_us.is_none())
+        .count() as u64;
+    s.latency_us = Latency::of(sim.cycles.iter().filter_map(Cycle::latency_us).collect());
+    s.supervision_tripped = sim.sup.tripped.clone();
+    s.elapsed_s = start.elapsed().as_secs_f64();
+    let rate_us = u64::from(opts.rate_ms) * 1000;
+    if let Some(p) = &opts.csv {
+        report::write_csv(p, &sim.cycles, rate_us)
+            .map_err(|e| format!("--csv {}: {e}", p.display()))?;
+    }
+    if let Some(p) = &opts.json {
+        report::write_json(p, &s).map_err(|e| format!("--json {}: {e}", p.display()))?;
+    }
+    if let Some(p) = &opts.plot {
+        report::write_plot(p, &sim.cycles, rate_us)?;
+    }
+    if let Some(p) = &opts.pcap {
+        report::write_pcap(p, &sim.packets, start_unix_us, opts.tcp)
+            .map_err(|e| format!("--pcap {}: {e}", p.display()))?;
+    }
+    Ok((s, sim.cycles))
+}
