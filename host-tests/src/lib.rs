@@ -27,3 +27,23 @@ pub fn workspace() -> PathBuf {
 pub fn shared_rri() -> PathBuf {
     workspace().join("../shared/rri")
 }
+
+/// The GSI folder and device the firmware library was built from (the
+/// same environment as this build: `RRI_GSI_DIR`, `RRI_DEVICE`), so host
+/// tools can read at run time the configuration the engine was built for.
+pub fn built_gsi() -> (PathBuf, Option<String>) {
+    let dir = match std::env::var("RRI_GSI_DIR")
+        .ok()
+        .filter(|v| !v.trim().is_empty())
+    {
+        Some(d) if std::path::Path::new(&d).is_absolute() => PathBuf::from(d),
+        Some(d) => workspace().join(d),
+        None => workspace().join("firmware/gsi/GSI"),
+    };
+    (
+        dir,
+        std::env::var("RRI_DEVICE")
+            .ok()
+            .filter(|v| !v.trim().is_empty()),
+    )
+}

@@ -242,9 +242,10 @@ fn s3_duplicates_and_reordered_ids_are_answered_and_counted() {
         );
     }
     let s = rig.engine.stats();
+    // 6 was skipped when 7 came, then arrived late: not lost (S3).
     assert_eq!(
         (s.duplicates, s.reordered, s.lost, s.answered),
-        (1, 1, 1, 5)
+        (1, 1, 0, 5)
     );
     assert_eq!(rig.engine.state(), SensorState::Operating);
 }

@@ -292,7 +292,9 @@ where
                 false
             }
             IdEvent::Reordered => {
+                // A late arrival fills the gap it left: not lost after all.
                 bump(&mut self.stats.reordered);
+                self.stats.lost = self.stats.lost.saturating_sub(1);
                 false
             }
         };

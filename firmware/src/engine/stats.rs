@@ -83,7 +83,8 @@ pub struct Stats {
     pub dropped_no_reply: u32,
     /// Per [`DecodeErrorKind`], in the order of `DecodeErrorKind::ALL`.
     pub decode_errors: [u32; 18],
-    /// S3: ids skipped (lost messages).
+    /// S3: ids skipped (lost messages); a message that arrives late
+    /// (reordered) fills its gap and is taken off again.
     pub lost: u32,
     pub duplicates: u32,
     pub reordered: u32,

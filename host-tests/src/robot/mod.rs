@@ -77,6 +77,10 @@ struct Supervision {
     timeout: Duration,
     max_lost: u32,
     in_row: u32,
+    /// Of the unanswered run: replies that came with a wrong Id or late,
+    /// so a trip names the cause.
+    wrong_in_row: u32,
+    late_in_row: u32,
     tripped: Option<String>,
     operating: bool,
     last_answer: Option<Instant>,
@@ -303,6 +307,7 @@ impl Sim<'_> {
         };
         let Some(w) = self.waiting.get_mut(&reply.id) else {
             self.s.wrong_id += 1;
+            self.sup.wrong_in_row += 1;
             self.s.first_error.get_or_insert_with(|| {
                 format!("reply with Id {} to no message sent (M8)", reply.id)
             });
@@ -319,6 +324,7 @@ impl Sim<'_> {
             self.s.answered += 1;
             if at.duration_since(sent) > Duration::from_millis(u64::from(self.opts.rate_ms)) {
                 self.s.late += 1;
+                self.sup.late_in_row += 1;
             }
             self.sup.last_answer = Some(at);
             if !self.sup.operating && self.sup.tripped.is_none() {
@@ -432,6 +438,8 @@ pub fn run(
             timeout: Duration::from_millis(u64::from(device.supervision.timeout_ms)),
             max_lost: device.supervision.max_lost,
             in_row: 0,
+            wrong_in_row: 0,
+            late_in_row: 0,
             tripped: None,
             operating: false,
             last_answer: None,
@@ -490,11 +498,24 @@ pub fn run(
         // S1 at send time: was the last message answered within its cycle?
         if let Some(prev) = previous.take() {
             let answered = sim.waiting.get(&prev).is_none_or(|w| w.answered);
-            sim.sup.in_row = if answered { 0 } else { sim.sup.in_row + 1 };
+            if answered {
+                sim.sup.in_row = 0;
+                sim.sup.wrong_in_row = 0;
+                sim.sup.late_in_row = 0;
+            } else {
+                sim.sup.in_row += 1;
+            }
             if sim.sup.in_row > sim.sup.max_lost {
                 let n = sim.sup.max_lost;
+                let cause = if sim.sup.wrong_in_row > 0 {
+                    format!("{} replies carried a wrong Id (M8)", sim.sup.wrong_in_row)
+                } else if sim.sup.late_in_row > 0 {
+                    format!("{} replies came later than one cycle", sim.sup.late_in_row)
+                } else {
+                    "no reply at all".to_string()
+                };
                 sim.trip(format!(
-                    "more than MaxLost = {n} messages in a row unanswered"
+                    "more than MaxLost = {n} messages in a row unanswered: {cause}"
                 ));
             }
         }
