@@ -216,6 +216,7 @@ struct Sim<'a> {
     s: Summary,
     packets: Vec<Packet>,
     log: &'a mut dyn Write,
+    bar: indicatif::ProgressBar,
 }
 
 fn local_for(to: SocketAddr) -> SocketAddr {
@@ -233,7 +234,20 @@ impl Sim<'_> {
 
     fn transition(&mut self, what: &str) {
         let t = self.start.elapsed().as_secs_f64();
-        let _ = writeln!(self.log, "[{t:9.3}s] controller: {what}");
+        let log = &mut self.log;
+        // Around the live progress bar, not through it.
+        self.bar.suspend(|| {
+            let _ = writeln!(log, "[{t:9.3}s] controller: {what}");
+        });
+    }
+
+    /// Messages older than one cycle still without an answer.
+    fn unanswered(&self, now: Instant) -> usize {
+        let cycle = Duration::from_millis(u64::from(self.opts.rate_ms));
+        self.waiting
+            .values()
+            .filter(|w| !w.answered && now.duration_since(w.sent) > cycle)
+            .count()
     }
 
     fn trip(&mut self, reason: String) {
@@ -425,6 +439,18 @@ pub fn run(
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_micros() as u64)
         .unwrap_or(0);
+    let bar = if opts.progress {
+        let bar = indicatif::ProgressBar::new(opts.cycles);
+        if let Ok(style) = indicatif::ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:32}] {pos}/{len} cycles {msg}",
+        ) {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        bar
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+
     let mut sim = Sim {
         opts,
         device,
@@ -454,6 +480,7 @@ pub fn run(
         },
         packets: Vec::new(),
         log,
+        bar,
     };
     sim.transition(&format!(
         "CONNECTED to {} ({}, {} over {}, DryRun={}, TimeOut={} ms, MaxLost={})",
@@ -465,18 +492,6 @@ pub fn run(
         device.supervision.timeout_ms,
         device.supervision.max_lost
     ));
-    let bar = if opts.progress {
-        let bar = indicatif::ProgressBar::new(opts.cycles);
-        if let Ok(style) = indicatif::ProgressStyle::with_template(
-            "{elapsed_precise} [{bar:32}] {pos}/{len} cycles, {per_sec} {msg}",
-        ) {
-            bar.set_style(style.progress_chars("=> "));
-        }
-        bar
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-
     let motion = Motion::new(device);
     let mut faults = faults;
     let rate = Duration::from_millis(u64::from(opts.rate_ms));
@@ -580,12 +595,14 @@ pub fn run(
             );
         }
         if c % 50 == 0 {
-            bar.set_position(c);
-            bar.set_message(format!(
-                "answered {} late {} lost {}",
+            let elapsed = start.elapsed().as_secs_f64().max(1e-9);
+            sim.bar.set_position(c);
+            sim.bar.set_message(format!(
+                "{:.0} msg/s, answered {}, late {}, lost {}",
+                sim.s.sent as f64 / elapsed,
                 sim.s.answered,
                 sim.s.late,
-                sim.s.sent - sim.s.answered
+                sim.unanswered(Instant::now())
             ));
         }
     }
@@ -597,7 +614,7 @@ pub fn run(
     while !sim.waiting.values().all(|w| w.answered) && Instant::now() < drain {
         sim.pump(drain.min(Instant::now() + rate), None);
     }
-    bar.finish_and_clear();
+    sim.bar.finish_and_clear();
 
     let mut s = sim.s.clone();
     s.lost = sim
