@@ -96,18 +96,7 @@ const SLACK_PER_ITEM: usize = 16;
 /// Slack for an XML declaration and leading whitespace.
 const SLACK_PROLOGUE: usize = 128;
 
-/// The attribute names of a multi-value element: frame, joints or array.
-pub fn attribute_names(ty: TypeRef, size: Option<u16>) -> Option<Vec<String>> {
-    if let Some(n) = size {
-        return Some((1..=n).map(|i| format!("X{i}")).collect());
-    }
-    match ty {
-        TypeRef::Simple(s) => s
-            .components()
-            .map(|c| c.iter().map(|s| s.to_string()).collect()),
-        _ => None,
-    }
-}
+pub use gsi_config::attribute_names;
 
 /// Size of one value slot: either element text or a set of attributes.
 /// `wrap_open`/`wrap_close` are the bytes around text values.

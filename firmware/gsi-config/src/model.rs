@@ -151,6 +151,21 @@ impl SimpleType {
     }
 }
 
+/// The attribute names of a multi-value slot (M4): `X1..XN` for an array
+/// of `size`, `X Y Z Rx Ry Rz` for a frame, `J1..J6` for joints; `None`
+/// for a value that travels as element text (M3).
+pub fn attribute_names(ty: TypeRef, size: Option<u16>) -> Option<Vec<String>> {
+    if let Some(n) = size {
+        return Some((1..=n).map(|i| format!("X{i}")).collect());
+    }
+    match ty {
+        TypeRef::Simple(s) => s
+            .components()
+            .map(|c| c.iter().map(|s| s.to_string()).collect()),
+        _ => None,
+    }
+}
+
 /// A resolved type reference.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TypeRef {

@@ -54,18 +54,7 @@ fn scalar(device: &Device, ty: TypeRef, v: &Value) -> String {
     }
 }
 
-/// The attribute names of a multi-value slot (M4), `None` for text.
-pub fn attributes(ty: TypeRef, size: Option<u16>) -> Option<Vec<String>> {
-    if let Some(n) = size {
-        return Some((1..=n).map(|i| format!("X{i}")).collect());
-    }
-    match ty {
-        TypeRef::Simple(s) => s
-            .components()
-            .map(|c| c.iter().map(|s| s.to_string()).collect()),
-        _ => None,
-    }
-}
+use gsi_config::attribute_names as attributes;
 
 /// One value slot: element text, or attributes (`"<name"` already written).
 fn slot(out: &mut String, device: &Device, name: &str, ty: TypeRef, size: Option<u16>, v: &Value) {
