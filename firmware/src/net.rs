@@ -1,12 +1,14 @@
-//! The UDP transport task every board runs (feature `net`): an
-//! `embassy-net` socket on the channel port, handing each datagram to the
-//! cycle engine and its reply back to the sender. The board supplies the
+//! The transport tasks every board runs (feature `net`): an `embassy-net`
+//! socket on the channel port (UDP, or TCP with M10 framing), handing each
+//! robot message to the cycle engine and its reply back to the sender. The board supplies the
 //! network stack (its Ethernet driver) and the clock; nothing here names a
 //! chip, and the host tests run this very code over an in-memory Ethernet.
 
 use crate::engine::{Application, Clock, Endpoint, Engine, Instant, Outcome};
 use crate::schema::MessageCodec;
+use crate::tcp::Framer;
 use embassy_futures::select::{select, Either};
+use embassy_net::tcp::TcpSocket;
 use embassy_net::udp::{PacketMetadata, RecvError, UdpSocket};
 use embassy_net::{IpAddress, IpEndpoint, Stack};
 use embassy_time::{Duration, Timer};
@@ -137,5 +139,123 @@ where
                 }
             }
         }
+    }
+}
+
+/// Buffers of the TCP cycle task: socket buffers of `SOCK` bytes each way,
+/// the framer's `RX` = `layout::MAX_RECEIVE_LEN`, the reply's `TX` =
+/// `layout::MAX_SEND_LEN`.
+pub struct TcpBuffers<const SOCK: usize, const RX: usize, const TX: usize> {
+    rx: [u8; SOCK],
+    tx: [u8; SOCK],
+    chunk: [u8; 512],
+    framer: Framer<RX>,
+    reply: [u8; TX],
+}
+
+impl<const SOCK: usize, const RX: usize, const TX: usize> Default for TcpBuffers<SOCK, RX, TX> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const SOCK: usize, const RX: usize, const TX: usize> TcpBuffers<SOCK, RX, TX> {
+    pub const fn new() -> Self {
+        TcpBuffers {
+            rx: [0; SOCK],
+            tx: [0; SOCK],
+            chunk: [0; 512],
+            framer: Framer::new(),
+            reply: [0; TX],
+        }
+    }
+}
+
+/// Writes all of `bytes`; `false` when the connection broke.
+async fn write_all(socket: &mut TcpSocket<'_>, mut bytes: &[u8]) -> bool {
+    while !bytes.is_empty() {
+        match socket.write(bytes).await {
+            Ok(0) | Err(_) => return false,
+            Ok(n) => bytes = bytes.get(n..).unwrap_or(&[]),
+        }
+    }
+    true
+}
+
+/// Runs the TCP cycle on `port` forever: one controller connection at a
+/// time (S2: `CONNECTED` when it is accepted, `CLOSED` when it goes), its
+/// byte stream cut into messages (M10), each answered on the same
+/// connection; a message longer than the receive buffer is a framing error
+/// that closes the connection.
+pub async fn tcp_cycle<Rx, Tx, A, C, const SOCK: usize, const RX: usize, const TX: usize>(
+    stack: Stack<'_>,
+    port: u16,
+    engine: &mut Engine<Rx, Tx>,
+    app: &mut A,
+    clock: &C,
+    buffers: &mut TcpBuffers<SOCK, RX, TX>,
+) -> !
+where
+    Rx: MessageCodec,
+    Tx: MessageCodec,
+    Rx::Data: Clone + Default,
+    Tx::Data: Default,
+    A: Application<Rx::Data, Tx::Data>,
+    C: Clock,
+{
+    let TcpBuffers {
+        rx,
+        tx,
+        chunk,
+        framer,
+        reply,
+    } = buffers;
+    loop {
+        let mut socket = TcpSocket::new(stack, rx, tx);
+        if socket.accept(port).await.is_err() {
+            engine.init_failed();
+            Timer::after(POLL_INTERVAL).await;
+            continue;
+        }
+        let Some(from) = socket.remote_endpoint().and_then(endpoint) else {
+            socket.abort();
+            continue;
+        };
+        engine.listening();
+        framer.reset();
+        'connection: loop {
+            match select(socket.read(chunk), Timer::after(POLL_INTERVAL)).await {
+                Either::First(Ok(0)) | Either::First(Err(_)) => break 'connection,
+                Either::First(Ok(n)) => {
+                    let received = clock.now();
+                    let mut rest = chunk.get(..n).unwrap_or(&[]);
+                    while !rest.is_empty() {
+                        let Ok((used, message)) = framer.feed(rest) else {
+                            engine.framing_error();
+                            break 'connection;
+                        };
+                        rest = rest.get(used..).unwrap_or(&[]);
+                        let Some(message) = message else { continue };
+                        if let Outcome::Reply { len, .. } =
+                            engine.on_message(app, clock, from, message, received, reply)
+                        {
+                            if !write_all(&mut socket, reply.get(..len).unwrap_or(&[])).await {
+                                break 'connection;
+                            }
+                        }
+                    }
+                }
+                Either::Second(()) => {
+                    if let Some((_, len)) = engine.poll(app, clock, reply) {
+                        if !write_all(&mut socket, reply.get(..len).unwrap_or(&[])).await {
+                            break 'connection;
+                        }
+                    }
+                }
+            }
+        }
+        socket.abort();
+        let _ = socket.flush().await;
+        engine.peer_closed();
     }
 }

@@ -43,6 +43,8 @@ pub struct Framer<const N: usize> {
     len: usize,
     mode: Mode,
     depth: u16,
+    /// The buffer holds a complete message handed out by [`Framer::feed`].
+    complete: bool,
 }
 
 impl<const N: usize> Default for Framer<N> {
@@ -58,6 +60,7 @@ impl<const N: usize> Framer<N> {
             len: 0,
             mode: Mode::Text,
             depth: 0,
+            complete: false,
         }
     }
 
@@ -66,22 +69,28 @@ impl<const N: usize> Framer<N> {
         self.len = 0;
         self.mode = Mode::Text;
         self.depth = 0;
+        self.complete = false;
     }
 
     /// Bytes of an unfinished message held.
     pub fn pending(&self) -> usize {
-        self.len
+        if self.complete {
+            0
+        } else {
+            self.len
+        }
     }
 
-    /// Feeds `chunk`; calls `message` with every message it completes, in
-    /// order. After a [`FramingError`] the framer is reset and the caller
-    /// closes the connection.
-    pub fn push(
-        &mut self,
-        chunk: &[u8],
-        mut message: impl FnMut(&[u8]),
-    ) -> Result<(), FramingError> {
-        for &b in chunk {
+    /// Feeds `chunk` until one message completes: returns how many bytes
+    /// were used and the message, if one completed (valid until the next
+    /// call). For transports that must answer each message before reading
+    /// on (an async socket). After a [`FramingError`] the framer is reset
+    /// and the caller closes the connection.
+    pub fn feed(&mut self, chunk: &[u8]) -> Result<(usize, Option<&[u8]>), FramingError> {
+        if self.complete {
+            self.reset();
+        }
+        for (i, &b) in chunk.iter().enumerate() {
             // Whitespace between messages is not kept.
             if self.len == 0 && self.mode == Mode::Text && b.is_ascii_whitespace() {
                 continue;
@@ -95,9 +104,28 @@ impl<const N: usize> Framer<N> {
             }
             self.len += 1;
             if self.step(b) {
-                message(self.buf.get(..self.len).unwrap_or(&[]));
-                self.reset();
+                self.complete = true;
+                return Ok((i + 1, self.buf.get(..self.len)));
             }
+        }
+        Ok((chunk.len(), None))
+    }
+
+    /// Feeds `chunk`; calls `message` with every message it completes, in
+    /// order. After a [`FramingError`] the framer is reset and the caller
+    /// closes the connection.
+    pub fn push(
+        &mut self,
+        chunk: &[u8],
+        mut message: impl FnMut(&[u8]),
+    ) -> Result<(), FramingError> {
+        let mut rest = chunk;
+        while !rest.is_empty() {
+            let (used, done) = self.feed(rest)?;
+            if let Some(m) = done {
+                message(m);
+            }
+            rest = rest.get(used..).unwrap_or(&[]);
         }
         Ok(())
     }

@@ -13,7 +13,7 @@ use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMes
 use rri_firmware::codec::decode;
 use rri_firmware::demo::{simulated_distance, DemoApp};
 use rri_firmware::engine::{Clock, Engine, SensorState};
-use rri_firmware::net::{udp_cycle, EmbassyClock, UdpBuffers};
+use rri_firmware::net::{tcp_cycle, udp_cycle, EmbassyClock, TcpBuffers, UdpBuffers};
 use rri_firmware::sample::{Reading, SampleCell};
 use smoltcp::wire::{
     ArpOperation, ArpPacket, ArpRepr, EthernetAddress, EthernetFrame, EthernetProtocol,
@@ -37,6 +37,7 @@ type Frames = Rc<RefCell<VecDeque<Vec<u8>>>>;
 struct MemDriver {
     to_device: Frames,
     from_device: Frames,
+    mac: [u8; 6],
 }
 
 struct MemRx(Vec<u8>);
@@ -81,7 +82,7 @@ impl Driver for MemDriver {
     }
 
     fn hardware_address(&self) -> HardwareAddress {
-        HardwareAddress::Ethernet(DEVICE_MAC)
+        HardwareAddress::Ethernet(self.mac)
     }
 }
 
@@ -190,6 +191,7 @@ fn thousand_cycles_over_embassy_net_with_real_frames() {
     let driver = MemDriver {
         to_device: to_device.clone(),
         from_device: from_device.clone(),
+        mac: DEVICE_MAC,
     };
     let config = embassy_net::Config::ipv4_static(StaticConfigV4 {
         address: Ipv4Cidr::new(Ipv4Address::from(device_ip), 24),
@@ -304,4 +306,141 @@ fn thousand_cycles_over_embassy_net_with_real_frames() {
         s.latency.max_us,
         s.latency.total_us as f64 / 1000.0
     );
+}
+
+/// M10 over a real TCP connection: the boards' `tcp_cycle` on one
+/// embassy-net stack, a robot on a second stack, both on one in-memory
+/// Ethernet. 200 messages, each written in two pieces; then a message
+/// longer than the receive buffer, which closes the connection (S2:
+/// CLOSED).
+#[test]
+fn tcp_cycle_over_embassy_net_frames_answers_and_closes() {
+    use embassy_net::tcp::TcpSocket;
+    use rri_firmware::tcp::Framer;
+
+    let device_ip = layout::NETWORK_IPV4.expect("IPv4");
+    MockDriver::get().reset();
+    let a: Frames = Rc::default();
+    let b: Frames = Rc::default();
+    let device_driver = MemDriver {
+        to_device: a.clone(),
+        from_device: b.clone(),
+        mac: DEVICE_MAC,
+    };
+    let robot_driver = MemDriver {
+        to_device: b.clone(),
+        from_device: a.clone(),
+        mac: ROBOT_MAC,
+    };
+    let net_config = |ip: [u8; 4]| {
+        embassy_net::Config::ipv4_static(StaticConfigV4 {
+            address: Ipv4Cidr::new(Ipv4Address::from(ip), 24),
+            gateway: None,
+            dns_servers: Default::default(),
+        })
+    };
+    let mut device_res = StackResources::<2>::new();
+    let mut robot_res = StackResources::<2>::new();
+    let (device_stack, mut device_runner) =
+        embassy_net::new(device_driver, net_config(device_ip), &mut device_res, 1);
+    let (robot_stack, mut robot_runner) =
+        embassy_net::new(robot_driver, net_config(ROBOT_IP), &mut robot_res, 2);
+
+    let mut engine: Engine<RobDataMessage, SensDataMessage> = Engine::new(layout::ENGINE_CONFIG);
+    let mut buffers =
+        TcpBuffers::<4096, { layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>::new();
+    let clock = EmbassyClock;
+    let (mut rx, mut tx) = ([0u8; 4096], [0u8; 4096]);
+    let mut app = ();
+    let answered = std::cell::Cell::new(0u32);
+    let closed_by_device = std::cell::Cell::new(false);
+
+    {
+        let mut device_net = pin!(device_runner.run());
+        let mut robot_net = pin!(robot_runner.run());
+        let mut task = pin!(tcp_cycle(
+            device_stack,
+            layout::CHANNEL_PORT,
+            &mut engine,
+            &mut app,
+            &clock,
+            &mut buffers
+        ));
+        let mut robot = pin!(async {
+            let mut socket = TcpSocket::new(robot_stack, &mut rx, &mut tx);
+            socket
+                .connect((Ipv4Address::from(device_ip), layout::CHANNEL_PORT))
+                .await
+                .expect("connects");
+            let mut framer = Framer::<4096>::new();
+            let mut chunk = [0u8; 1024];
+            for id in 1..=200u32 {
+                let msg = format!(r#"<RobData Id="{id}" Ts="1.0"><Ts_act>1.0</Ts_act></RobData>"#);
+                let (first, second) = msg.as_bytes().split_at(msg.len() / 2);
+                for part in [first, second] {
+                    let mut rest = part;
+                    while !rest.is_empty() {
+                        let n = socket.write(rest).await.expect("writes");
+                        rest = &rest[n..];
+                    }
+                }
+                let mut reply = None;
+                while reply.is_none() {
+                    let n = socket.read(&mut chunk).await.expect("reads");
+                    assert!(n > 0, "connection open");
+                    framer
+                        .push(&chunk[..n], |m| reply = Some(m.to_vec()))
+                        .expect("replies fit");
+                }
+                let mut data = layout::SensorData::default();
+                let d =
+                    decode::<SensDataMessage>(&reply.expect("reply"), &mut data).expect("decodes");
+                assert_eq!(d.id, id, "M8 over TCP");
+                answered.set(answered.get() + 1);
+            }
+            // Longer than the device's receive buffer: a framing error (M10).
+            let big = format!(
+                "<RobData Id=\"999\">{}</RobData>",
+                " ".repeat(layout::MAX_RECEIVE_LEN + 10)
+            );
+            let mut rest = big.as_bytes();
+            while !rest.is_empty() {
+                match socket.write(rest).await {
+                    Ok(0) | Err(_) => break,
+                    Ok(n) => rest = &rest[n..],
+                }
+            }
+            loop {
+                match socket.read(&mut chunk).await {
+                    Ok(0) | Err(_) => break,
+                    Ok(_) => {}
+                }
+            }
+            closed_by_device.set(true);
+        });
+        let mut done = false;
+        for _ in 0..200_000 {
+            assert!(poll_once(device_net.as_mut()).is_pending());
+            assert!(poll_once(robot_net.as_mut()).is_pending());
+            assert!(poll_once(task.as_mut()).is_pending());
+            if poll_once(robot.as_mut()).is_ready() {
+                done = true;
+                break;
+            }
+            MockDriver::get().advance(Duration::from_micros(50));
+        }
+        assert!(done, "the robot finished ({} answered)", answered.get());
+        // Let the device notice the close.
+        for _ in 0..100 {
+            let _ = poll_once(device_net.as_mut());
+            let _ = poll_once(robot_net.as_mut());
+            let _ = poll_once(task.as_mut());
+            MockDriver::get().advance(Duration::from_micros(50));
+        }
+    }
+    assert_eq!(answered.get(), 200);
+    assert!(closed_by_device.get());
+    let s = engine.stats();
+    assert_eq!((s.answered, s.framing_errors, s.closed), (200, 1, 1));
+    assert_eq!(engine.state(), SensorState::Closed);
 }
