@@ -258,16 +258,37 @@ where
             self.robot_ts = decoded.ts;
         }
         self.account(decoded.id);
+        self.respond(app, clock, Some(decoded.id), decoded.id, out)
+    }
 
+    /// The application's turn, then the reply (Id `id`, `Ts` now) into
+    /// `out`: the common tail of an answer and a periodic send.
+    fn respond<A: Application<Rx::Data, Tx::Data>, C: Clock>(
+        &mut self,
+        app: &mut A,
+        clock: &C,
+        robot_id: Option<u32>,
+        id: u32,
+        out: &mut [u8],
+    ) -> Result<usize, DropReason> {
         let info = CycleInfo {
             state: self.state,
             now: clock.now(),
-            robot_id: Some(decoded.id),
+            robot_id,
             robot_ts: self.robot_ts,
             stats: &self.stats,
         };
         app.cycle(&self.robot, &mut self.reply, &info);
-        self.encode_reply(decoded.id, clock.now(), out)
+        let e = encode::<Tx>(
+            &self.reply,
+            id,
+            clock.now().as_time(),
+            self.config.format,
+            out,
+        )
+        .map_err(|_| DropReason::Encode)?;
+        add(&mut self.stats.non_finite, e.non_finite.into());
+        Ok(e.len)
     }
 
     /// S3 accounting and the S2 transitions a good message drives.
@@ -308,13 +329,6 @@ where
         } else {
             self.set_state(SensorState::Operating, None);
         }
-    }
-
-    fn encode_reply(&mut self, id: u32, now: Instant, out: &mut [u8]) -> Result<usize, DropReason> {
-        let e = encode::<Tx>(&self.reply, id, now.as_time(), self.config.format, out)
-            .map_err(|_| DropReason::Encode)?;
-        add(&mut self.stats.non_finite, e.non_finite.into());
-        Ok(e.len)
     }
 
     /// Time-driven work, to be called at least every few milliseconds:
@@ -362,15 +376,7 @@ where
             next
         }));
         self.own_id = self.own_id.wrapping_add(1);
-        let info = CycleInfo {
-            state: self.state,
-            now,
-            robot_id: None,
-            robot_ts: self.robot_ts,
-            stats: &self.stats,
-        };
-        app.cycle(&self.robot, &mut self.reply, &info);
-        match self.encode_reply(self.own_id, clock.now(), out) {
+        match self.respond(app, clock, None, self.own_id, out) {
             Ok(len) => {
                 bump(&mut self.stats.sent);
                 bump(&mut self.stats.periodic_sent);
