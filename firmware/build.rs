@@ -9,6 +9,11 @@
 //!   only one.
 //! - `RRI_REAL_DECIMALS`, `RRI_TIME_DECIMALS`: decimals written for reals
 //!   and times in sent messages (0..=6, default 3; M5).
+//! - `RRI_CONTROLLER`: pin the controller (`ip` or `ip:port`).
+//! - `RRI_SEND_PERIOD_MS`: periodic sends for one-way streams.
+//! - `RRI_NETMASK` (prefix length 0..=32 or a dotted mask, default 24) and
+//!   `RRI_GATEWAY` (IPv4, default none): the boards' network besides the
+//!   device address from Description.xml (`$OUT_DIR/network.rs`).
 //!
 //! Every problem is reported as `file:line:col: error[rule]: …` and all of
 //! them at once; the G6 quirks of the manual's example build with a warning.
@@ -27,6 +32,8 @@ fn main() {
         "RRI_TIME_DECIMALS",
         "RRI_CONTROLLER",
         "RRI_SEND_PERIOD_MS",
+        "RRI_NETMASK",
+        "RRI_GATEWAY",
     ] {
         println!("cargo:rerun-if-env-changed={var}");
     }
@@ -41,6 +48,7 @@ fn main() {
     let time_decimals = decimals("RRI_TIME_DECIMALS", &mut errors);
     let controller = controller(&mut errors);
     let send_period_ms = send_period(&mut errors);
+    let network = network(&mut errors);
 
     println!("cargo:rerun-if-changed={}", gsi_dir.display());
     let loaded = gsi_config::load(&gsi_dir, device.as_deref());
@@ -89,10 +97,58 @@ fn main() {
             fail("the message layouts cannot be generated (see above)");
         }
     };
-    let out = PathBuf::from(env("OUT_DIR").expect("cargo sets OUT_DIR")).join("layout.rs");
-    if let Err(e) = std::fs::write(&out, source) {
-        fail(&format!("cannot write {}: {e}", out.display()));
+    let out_dir = PathBuf::from(env("OUT_DIR").expect("cargo sets OUT_DIR"));
+    for (name, text) in [("layout.rs", source), ("network.rs", network)] {
+        let out = out_dir.join(name);
+        if let Err(e) = std::fs::write(&out, text) {
+            fail(&format!("cannot write {}: {e}", out.display()));
+        }
     }
+}
+
+fn ipv4(text: &str) -> Option<[u8; 4]> {
+    let octets: Option<Vec<u8>> = text.trim().split('.').map(|p| p.parse().ok()).collect();
+    octets.and_then(|o| o.try_into().ok())
+}
+
+/// `RRI_NETMASK` and `RRI_GATEWAY`, as Rust constants for `network.rs`.
+fn network(errors: &mut Vec<String>) -> String {
+    let prefix = match env("RRI_NETMASK") {
+        None => 24,
+        Some(v) => match (v.trim().parse::<u8>(), ipv4(&v)) {
+            (Ok(bits), _) if bits <= 32 => bits,
+            (_, Some(mask))
+                if u32::from_be_bytes(mask).leading_ones()
+                    == u32::from_be_bytes(mask).count_ones() =>
+            {
+                u32::from_be_bytes(mask).count_ones() as u8
+            }
+            _ => {
+                errors.push(format!(
+                    "RRI_NETMASK={v}: expected a prefix length 0..=32 or a netmask such as 255.255.255.0"
+                ));
+                24
+            }
+        },
+    };
+    let gateway = match env("RRI_GATEWAY") {
+        None => "None".to_string(),
+        Some(v) => match ipv4(&v) {
+            Some([a, b, c, d]) => format!("Some([{a}, {b}, {c}, {d}])"),
+            None => {
+                errors.push(format!(
+                    "RRI_GATEWAY={v}: expected an IPv4 address, e.g. 192.168.125.1"
+                ));
+                "None".to_string()
+            }
+        },
+    };
+    format!(
+        "/// `RRI_NETMASK` as a prefix length (default 24).\n\
+         pub const PREFIX_LEN: u8 = {prefix};\n\
+         /// `RRI_GATEWAY` (default none: the controller is on the device's own subnet).\n\
+         pub const GATEWAY: Option<[u8; 4]> = {gateway};\n"
+    )
 }
 
 fn env(name: &str) -> Option<String> {
@@ -122,8 +178,7 @@ fn controller(errors: &mut Vec<String>) -> Option<([u8; 4], Option<u16>)> {
         Some((ip, port)) => (ip, Some(port)),
         None => (v.trim(), None),
     };
-    let octets: Option<Vec<u8>> = ip.split('.').map(|p| p.parse().ok()).collect();
-    let ip: Option<[u8; 4]> = octets.and_then(|o| o.try_into().ok());
+    let ip = ipv4(ip);
     let port = match port.map(|p| p.parse::<u16>()) {
         None => Ok(None),
         Some(Ok(p)) if p > 0 => Ok(Some(p)),
@@ -174,6 +229,8 @@ fn fail(summary: &str) -> ! {
 /// Link arguments for the firmware's binaries on the MCU only: the host
 /// build (tests) must not see them. Board binaries live in `src/bin/`;
 /// cargo refuses `rustc-link-arg-bins` for a package without any.
+/// `rri-board.x` is written by hal-board's build script: the board's memory
+/// map and cortex-m-rt's linker script.
 fn mcu_link_args(workspace: &Path, manifest: &Path) {
     let has_bins = manifest.join("src").join("bin").is_dir();
     if env("CARGO_CFG_TARGET_OS").as_deref() == Some("none") && has_bins {
@@ -183,7 +240,7 @@ fn mcu_link_args(workspace: &Path, manifest: &Path) {
             workspace.join("memory.x").display()
         );
         println!("cargo:rustc-link-arg-bins=--nmagic");
-        println!("cargo:rustc-link-arg-bins=-Tlink.x");
+        println!("cargo:rustc-link-arg-bins=-Trri-board.x");
         println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
     }
 }

@@ -30,13 +30,17 @@
     )
 )]
 
+#[cfg(feature = "bench")]
+pub mod bench;
 pub mod codec;
 pub mod demo;
 pub mod engine;
 pub mod layout;
 #[cfg(feature = "net")]
 pub mod net;
+pub mod network;
 pub mod sample;
 pub mod schema;
+pub mod snapshot;
 pub mod tcp;
 pub mod value;

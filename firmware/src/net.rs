@@ -30,6 +30,36 @@ pub const POLL_INTERVAL: Duration = Duration::from_micros(500);
 /// Socket queue depth: datagrams waiting in each direction.
 pub const QUEUE: usize = 4;
 
+/// IPv4 + UDP headers: what a datagram adds to its payload on the wire.
+const IPV4_UDP_HEADERS: usize = 20 + 8;
+
+/// What the board's firmware learns of each turn of the cycle loop, after
+/// the reply (if any) has been queued: publish a snapshot for the watchers,
+/// record timings. Everything here runs after the answer, so nothing a
+/// monitor does delays it.
+pub trait Monitor<Rx: MessageCodec, Tx: MessageCodec> {
+    /// A free-running counter read just before and just after the engine's
+    /// work on a message (bench builds read the board's cycle counter).
+    fn count(&self) -> u32 {
+        0
+    }
+    /// A robot message of `bytes` bytes was handled with `outcome`;
+    /// `counts` are [`Monitor::count`] before and after the engine.
+    fn message(
+        &mut self,
+        _engine: &Engine<Rx, Tx>,
+        _bytes: usize,
+        _outcome: &Outcome,
+        _counts: (u32, u32),
+    ) {
+    }
+    /// The engine's time-driven work ran.
+    fn polled(&mut self, _engine: &Engine<Rx, Tx>) {}
+}
+
+/// No monitor.
+impl<Rx: MessageCodec, Tx: MessageCodec> Monitor<Rx, Tx> for () {}
+
 /// Buffers of the UDP cycle task, all sized by the generated layout:
 /// `RX` = `layout::MAX_RECEIVE_LEN`, `TX` = `layout::MAX_SEND_LEN`.
 pub struct UdpBuffers<const RX: usize, const TX: usize> {
@@ -49,6 +79,21 @@ impl<const RX: usize, const TX: usize> Default for UdpBuffers<RX, TX> {
 
 impl<const RX: usize, const TX: usize> UdpBuffers<RX, TX> {
     pub const fn new() -> Self {
+        // A robot datagram longer than one Ethernet frame arrives in IPv4
+        // fragments and a long reply leaves in fragments: smoltcp's buffers
+        // for both (cargo features of `smoltcp` in firmware/Cargo.toml, or
+        // SMOLTCP_REASSEMBLY_BUFFER_SIZE / SMOLTCP_FRAGMENTATION_BUFFER_SIZE
+        // at build time) must hold the layout's longest messages.
+        const {
+            assert!(
+                RX + 8 <= smoltcp::config::REASSEMBLY_BUFFER_SIZE,
+                "the layout's MAX_RECEIVE_LEN does not fit smoltcp's IPv4 reassembly buffer: raise SMOLTCP_REASSEMBLY_BUFFER_SIZE"
+            );
+            assert!(
+                TX + IPV4_UDP_HEADERS <= smoltcp::config::FRAGMENTATION_BUFFER_SIZE,
+                "the layout's MAX_SEND_LEN does not fit smoltcp's IPv4 fragmentation buffer: raise SMOLTCP_FRAGMENTATION_BUFFER_SIZE"
+            );
+        }
         UdpBuffers {
             rx_meta: [PacketMetadata::EMPTY; QUEUE],
             rx: [[0; RX]; QUEUE],
@@ -74,13 +119,14 @@ fn ip_endpoint(e: Endpoint) -> IpEndpoint {
 
 /// Runs the UDP cycle on `port` forever: receive → engine → reply, and the
 /// engine's time-driven work every [`POLL_INTERVAL`].
-pub async fn udp_cycle<Rx, Tx, A, C, const RX: usize, const TX: usize>(
+pub async fn udp_cycle<Rx, Tx, A, C, M, const RX: usize, const TX: usize>(
     stack: Stack<'_>,
     port: u16,
     engine: &mut Engine<Rx, Tx>,
     app: &mut A,
     clock: &C,
     buffers: &mut UdpBuffers<RX, TX>,
+    monitor: &mut M,
 ) -> !
 where
     Rx: MessageCodec,
@@ -89,6 +135,7 @@ where
     Tx::Data: Default,
     A: Application<Rx::Data, Tx::Data>,
     C: Clock,
+    M: Monitor<Rx, Tx>,
 {
     let UdpBuffers {
         rx_meta,
@@ -122,13 +169,15 @@ where
                     continue;
                 };
                 let bytes = datagram.get(..len).unwrap_or(&[]);
-                if let Outcome::Reply { to, len } =
-                    engine.on_message(app, clock, from, bytes, received, reply)
-                {
+                let before = monitor.count();
+                let outcome = engine.on_message(app, clock, from, bytes, received, reply);
+                let after = monitor.count();
+                if let Outcome::Reply { to, len } = outcome {
                     let _ = socket
                         .send_to(reply.get(..len).unwrap_or(&[]), ip_endpoint(to))
                         .await;
                 }
+                monitor.message(engine, len, &outcome, (before, after));
             }
             Either::First(Err(RecvError::Truncated)) => engine.datagram_too_long(),
             Either::Second(()) => {
@@ -137,6 +186,7 @@ where
                         .send_to(reply.get(..len).unwrap_or(&[]), ip_endpoint(to))
                         .await;
                 }
+                monitor.polled(engine);
             }
         }
     }
@@ -187,13 +237,15 @@ async fn write_all(socket: &mut TcpSocket<'_>, mut bytes: &[u8]) -> bool {
 /// byte stream cut into messages (M10), each answered on the same
 /// connection; a message longer than the receive buffer is a framing error
 /// that closes the connection.
-pub async fn tcp_cycle<Rx, Tx, A, C, const SOCK: usize, const RX: usize, const TX: usize>(
+#[allow(clippy::too_many_arguments)]
+pub async fn tcp_cycle<Rx, Tx, A, C, M, const SOCK: usize, const RX: usize, const TX: usize>(
     stack: Stack<'_>,
     port: u16,
     engine: &mut Engine<Rx, Tx>,
     app: &mut A,
     clock: &C,
     buffers: &mut TcpBuffers<SOCK, RX, TX>,
+    monitor: &mut M,
 ) -> !
 where
     Rx: MessageCodec,
@@ -202,6 +254,7 @@ where
     Tx::Data: Default,
     A: Application<Rx::Data, Tx::Data>,
     C: Clock,
+    M: Monitor<Rx, Tx>,
 {
     let TcpBuffers {
         rx,
@@ -236,13 +289,16 @@ where
                         };
                         rest = rest.get(used..).unwrap_or(&[]);
                         let Some(message) = message else { continue };
-                        if let Outcome::Reply { len, .. } =
-                            engine.on_message(app, clock, from, message, received, reply)
-                        {
+                        let bytes = message.len();
+                        let before = monitor.count();
+                        let outcome = engine.on_message(app, clock, from, message, received, reply);
+                        let after = monitor.count();
+                        if let Outcome::Reply { len, .. } = outcome {
                             if !write_all(&mut socket, reply.get(..len).unwrap_or(&[])).await {
                                 break 'connection;
                             }
                         }
+                        monitor.message(engine, bytes, &outcome, (before, after));
                     }
                 }
                 Either::Second(()) => {
@@ -251,6 +307,7 @@ where
                             break 'connection;
                         }
                     }
+                    monitor.polled(engine);
                 }
             }
         }

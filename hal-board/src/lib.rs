@@ -1,12 +1,24 @@
 //! # hal-board: the only crate that names a chip
 //!
-//! A board supplies exactly three things to the firmware: an
-//! `embassy-net` network driver, a clock, and its pins (LEDs, ADC input).
-//! Everything else (protocol, codec, cycle engine) lives in `rri-firmware`
-//! and never sees a register.
+//! A board supplies exactly what the firmware cannot know: its network
+//! driver, its time driver, its LEDs, a sample source for the demo
+//! application, a watchdog, its interrupt vector and logger. Everything else
+//! (protocol, codec, cycle engine, the firmware's tasks) lives in
+//! `rri-firmware` and never sees a register.
 //!
-//! No board is implemented yet: STM32 (NUCLEO-F767ZI / H743ZI) and QEMU
-//! boards arrive with their issues, each as one small module behind a cargo
-//! feature, with chip-only dependencies gated to `target_os = "none"` so the
-//! host build never compiles them.
-#![no_std]
+//! Each board is one module behind one cargo feature and exports the same
+//! names (see [`board`]): `init()`, `Board`, `Net`, `Leds`, `Sampler`,
+//! `Watchdog`, `start_urgent_executor()`, `cycle_counter()`, `exit()`.
+//! Chip-only dependencies are gated to `target_os = "none"`, so the host
+//! build (`cargo test`) never compiles them; the LAN9118 driver is plain
+//! logic over a register trait and is unit-tested on the host.
+#![cfg_attr(not(test), no_std)]
+
+pub mod lan9118;
+
+#[cfg(all(feature = "mps2-an500", target_os = "none"))]
+pub mod mps2_an500;
+
+/// The board this firmware is built for.
+#[cfg(all(feature = "mps2-an500", target_os = "none"))]
+pub use mps2_an500 as board;

@@ -208,6 +208,7 @@ fn thousand_cycles_over_embassy_net_with_real_frames() {
     let mut buffers = UdpBuffers::<{ layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>::new();
     let clock = EmbassyClock;
 
+    let mut monitor = ();
     {
         let mut net = pin!(runner.run());
         let mut task = pin!(udp_cycle(
@@ -216,7 +217,8 @@ fn thousand_cycles_over_embassy_net_with_real_frames() {
             &mut engine,
             &mut app,
             &clock,
-            &mut buffers
+            &mut buffers,
+            &mut monitor
         ));
         let mut step = |n: usize| {
             for _ in 0..n {
@@ -355,6 +357,7 @@ fn tcp_cycle_over_embassy_net_frames_answers_and_closes() {
     let answered = std::cell::Cell::new(0u32);
     let closed_by_device = std::cell::Cell::new(false);
 
+    let mut monitor = ();
     {
         let mut device_net = pin!(device_runner.run());
         let mut robot_net = pin!(robot_runner.run());
@@ -364,7 +367,8 @@ fn tcp_cycle_over_embassy_net_frames_answers_and_closes() {
             &mut engine,
             &mut app,
             &clock,
-            &mut buffers
+            &mut buffers,
+            &mut monitor
         ));
         let mut robot = pin!(async {
             let mut socket = TcpSocket::new(robot_stack, &mut rx, &mut tx);

@@ -26,6 +26,7 @@ use xmlparser::{ElementEnd, Token, Tokenizer};
 
 /// Why a datagram was rejected.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DecodeErrorKind {
     /// Longer than the message's compile-time `MAX_RECEIVE_LEN`.
     TooLong,

@@ -5,6 +5,7 @@ use super::time::Instant;
 
 /// An IPv4 address and port (RRI controllers speak IPv4).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Endpoint {
     pub ip: [u8; 4],
     pub port: u16,

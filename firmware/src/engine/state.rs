@@ -2,6 +2,7 @@
 
 /// RAPID's `sensorstate` values (S2).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SensorState {
     /// `STATE_ERROR = -1`, with an [`ErrorCode`].
     Error,
@@ -41,6 +42,7 @@ impl SensorState {
 
 /// The controller's error codes for `STATE_ERROR` (S2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ErrorCode {
     /// 112600: interface initialisation failed (the transport could not
     /// open its socket).

@@ -7,6 +7,7 @@ use crate::codec::DecodeErrorKind;
 /// buckets: bucket `i` counts latencies below `2^i` µs (and at least
 /// `2^(i-1)`); the last bucket counts everything from 2^15 µs (32.8 ms) on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Histogram {
     pub buckets: [u32; Histogram::BUCKETS],
     pub count: u32,
@@ -18,17 +19,20 @@ pub struct Histogram {
 
 impl Default for Histogram {
     fn default() -> Self {
-        Histogram {
-            buckets: [0; Histogram::BUCKETS],
-            count: 0,
-            min_us: u32::MAX,
-            max_us: 0,
-            total_us: 0,
-        }
+        Self::EMPTY
     }
 }
 
 impl Histogram {
+    /// No latency recorded yet.
+    pub const EMPTY: Histogram = Histogram {
+        buckets: [0; Histogram::BUCKETS],
+        count: 0,
+        min_us: u32::MAX,
+        max_us: 0,
+        total_us: 0,
+    };
+
     /// 0 µs, <2, <4, … <2^15 µs (32.8 ms), and above.
     pub const BUCKETS: usize = 17;
 
@@ -53,6 +57,7 @@ impl Histogram {
 
 /// Why a datagram got no answer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DropReason {
     /// Not from the controller (or a pinned controller's address), and the
     /// peer has not been silent for `TimeOut`.
@@ -67,7 +72,8 @@ pub enum DropReason {
 }
 
 /// Every counter of the engine. Counters saturate instead of wrapping.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Stats {
     /// Datagrams (or TCP messages) handed to the engine.
     pub received: u32,
@@ -82,7 +88,7 @@ pub struct Stats {
     pub dropped_encode: u32,
     pub dropped_no_reply: u32,
     /// Per [`DecodeErrorKind`], in the order of `DecodeErrorKind::ALL`.
-    pub decode_errors: [u32; 18],
+    pub decode_errors: [u32; DecodeErrorKind::ALL.len()],
     /// S3: ids skipped (lost messages); a message that arrives late
     /// (reordered) fills its gap and is taken off again.
     pub lost: u32,
@@ -116,6 +122,48 @@ pub struct Stats {
     /// TCP peers that closed the connection.
     pub closed: u32,
     pub latency: Histogram,
+}
+
+impl Default for Stats {
+    fn default() -> Self {
+        Self::ZERO
+    }
+}
+
+impl Stats {
+    /// Every counter at zero (usable in a `static`).
+    pub const ZERO: Stats = Stats {
+        received: 0,
+        sent: 0,
+        answered: 0,
+        periodic_sent: 0,
+        dropped_foreign: 0,
+        dropped_decode: 0,
+        dropped_encode: 0,
+        dropped_no_reply: 0,
+        decode_errors: [0; DecodeErrorKind::ALL.len()],
+        lost: 0,
+        duplicates: 0,
+        reordered: 0,
+        id_wraps: 0,
+        max_lost_exceeded: 0,
+        timeouts: 0,
+        peer_locked: 0,
+        peer_takeovers: 0,
+        port_takeovers: 0,
+        state_changes: 0,
+        unknown_elements: 0,
+        unknown_attributes: 0,
+        missing_fields: 0,
+        missing_values: 0,
+        shape_mismatches: 0,
+        truncated_strings: 0,
+        stray_text: 0,
+        non_finite: 0,
+        framing_errors: 0,
+        closed: 0,
+        latency: Histogram::EMPTY,
+    };
 }
 
 pub(crate) fn bump(c: &mut u32) {

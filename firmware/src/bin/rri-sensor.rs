@@ -1,0 +1,305 @@
+//! The sensor firmware, the same on every board: the board (hal-board,
+//! chosen by a cargo feature) supplies the network driver, the time driver,
+//! LEDs, a sample source and a watchdog; everything here is written once.
+//!
+//! Tasks and priorities:
+//! - urgent executor (an interrupt, above everything but the time and NIC
+//!   interrupts): the network stack's runner and the cycle (receive →
+//!   engine → reply). Nothing else can delay an answer.
+//! - thread mode: the sampler (100 Hz), housekeeping (10 Hz: LEDs, the
+//!   watchdog, state changes and a counter line per second in the log) and,
+//!   in bench builds, the bench's record logger.
+//!
+//! The watchers never hold the engine: the cycle publishes a
+//! [`Snapshot`] after each turn and they read the latest one.
+#![no_std]
+#![no_main]
+
+use embassy_executor::{Executor, SendSpawner, Spawner};
+use embassy_net::{Ipv4Address, Ipv4Cidr, Runner, Stack, StackResources, StaticConfigV4};
+use embassy_time::{Duration, Ticker};
+use hal_board::board;
+use rri_firmware::codec::DecodeErrorKind;
+use rri_firmware::demo::{simulated_distance, DemoApp};
+use rri_firmware::engine::{Clock, Engine, Outcome, SensorState};
+use rri_firmware::layout::{self, DeviceEngine, ReplyMessage, RobotMessage};
+use rri_firmware::net::{self, EmbassyClock, Monitor};
+use rri_firmware::network;
+use rri_firmware::sample::{Reading, SampleCell, SampleReader, SampleWriter};
+use rri_firmware::schema::ChannelProtocol;
+use rri_firmware::snapshot::{Published, Snapshot};
+use static_cell::{ConstStaticCell, StaticCell};
+
+/// The device's address: Description.xml's `Network Address`.
+const ADDRESS: [u8; 4] = match layout::NETWORK_IPV4 {
+    Some(ip) => ip,
+    None => panic!("Description.xml's Network Address must be an IPv4 address for a board"),
+};
+const TCP: bool = matches!(layout::CHANNEL_PROTOCOL, ChannelProtocol::Tcp);
+/// TCP socket buffers: a few messages each way.
+const TCP_SOCKET: usize = 2 * layout::MAX_RECEIVE_LEN;
+/// The watchdog resets the board when the cycle stops turning this long.
+const WATCHDOG_MS: u32 = 2_000;
+
+#[cfg(feature = "bench")]
+type Nic = rri_firmware::bench::Tap<board::Net>;
+#[cfg(not(feature = "bench"))]
+type Nic = board::Net;
+
+static SAMPLES: SampleCell<1> = SampleCell::new();
+static PUBLISHED: Published = Published::new();
+
+/// Spawns a task at start-up; a full task pool is a build mistake.
+macro_rules! spawn {
+    ($spawner:expr, $task:expr) => {
+        match $task {
+            Ok(token) => $spawner.spawn(token),
+            Err(_) => defmt::panic!("task pool full: {}", stringify!($task)),
+        }
+    };
+}
+
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    let b = match board::init() {
+        Ok(b) => b,
+        Err(e) => defmt::panic!("{}: the network chip did not start: {}", board::NAME, e),
+    };
+    defmt::info!(
+        "rri-sensor {} on {}: {} at {}.{}.{}.{}/{} port {} over {}",
+        env!("CARGO_PKG_VERSION"),
+        board::NAME,
+        layout::DEVICE_NAME,
+        ADDRESS[0],
+        ADDRESS[1],
+        ADDRESS[2],
+        ADDRESS[3],
+        network::PREFIX_LEN,
+        layout::CHANNEL_PORT,
+        if TCP { "TCP" } else { "UDP" },
+    );
+    let Some((writer, reader)) = SAMPLES.split() else {
+        defmt::panic!("the sample cell was split twice")
+    };
+    #[cfg(feature = "bench")]
+    let nic = rri_firmware::bench::Tap::new(b.net, board::cycle_counter);
+    #[cfg(not(feature = "bench"))]
+    let nic = b.net;
+    let urgent: SendSpawner = board::start_urgent_executor();
+    spawn!(urgent, network(nic, b.seed, reader));
+
+    static THREAD: StaticCell<Executor> = StaticCell::new();
+    let (sampler_source, leds, watchdog) = (b.sampler, b.leds, b.watchdog);
+    THREAD.init(Executor::new()).run(move |s: Spawner| {
+        spawn!(s, sampler(sampler_source, writer));
+        spawn!(s, housekeeping(leds, watchdog));
+        #[cfg(feature = "bench")]
+        spawn!(s, bench_log());
+    })
+}
+
+/// Builds the network stack on the urgent executor (the stack is not
+/// `Send`: it must live where it runs) and starts the runner and the cycle.
+#[embassy_executor::task]
+async fn network(nic: Nic, seed: u64, reader: SampleReader<'static, 1>) {
+    // SAFETY: this task runs on the urgent executor and spawns onto it.
+    let spawner = unsafe { Spawner::for_current_executor() }.await;
+    let [a, b, c, d] = ADDRESS;
+    let config = embassy_net::Config::ipv4_static(StaticConfigV4 {
+        address: Ipv4Cidr::new(Ipv4Address::new(a, b, c, d), network::PREFIX_LEN),
+        gateway: network::GATEWAY.map(|[a, b, c, d]| Ipv4Address::new(a, b, c, d)),
+        dns_servers: Default::default(),
+    });
+    static RESOURCES: StaticCell<StackResources<2>> = StaticCell::new();
+    let (stack, runner) =
+        embassy_net::new(nic, config, RESOURCES.init(StackResources::new()), seed);
+    spawn!(spawner, net_runner(runner));
+    spawn!(spawner, cycle(stack, reader));
+}
+
+#[embassy_executor::task]
+async fn net_runner(mut runner: Runner<'static, Nic>) -> ! {
+    runner.run().await
+}
+
+/// The cycle: the engine and the demo application over the configured
+/// channel (UDP or TCP).
+#[embassy_executor::task]
+async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, 1>) -> ! {
+    static ENGINE: StaticCell<DeviceEngine> = StaticCell::new();
+    let engine = ENGINE.init_with(|| Engine::new(layout::ENGINE_CONFIG));
+    let mut app = DemoApp::new(reader);
+    let mut monitor = Publisher { heartbeat: 0 };
+    stack.wait_config_up().await;
+    if TCP {
+        static BUFFERS: ConstStaticCell<
+            net::TcpBuffers<TCP_SOCKET, { layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>,
+        > = ConstStaticCell::new(net::TcpBuffers::new());
+        let buffers = BUFFERS.take();
+        net::tcp_cycle(
+            stack,
+            layout::CHANNEL_PORT,
+            engine,
+            &mut app,
+            &EmbassyClock,
+            buffers,
+            &mut monitor,
+        )
+        .await
+    } else {
+        static BUFFERS: ConstStaticCell<
+            net::UdpBuffers<{ layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>,
+        > = ConstStaticCell::new(net::UdpBuffers::new());
+        let buffers = BUFFERS.take();
+        net::udp_cycle(
+            stack,
+            layout::CHANNEL_PORT,
+            engine,
+            &mut app,
+            &EmbassyClock,
+            buffers,
+            &mut monitor,
+        )
+        .await
+    }
+}
+
+/// Publishes the engine's snapshot after every turn of the cycle loop.
+struct Publisher {
+    heartbeat: u32,
+}
+
+impl Publisher {
+    fn publish(&mut self, engine: &DeviceEngine) {
+        self.heartbeat = self.heartbeat.wrapping_add(1);
+        PUBLISHED.publish(&Snapshot::of(engine, self.heartbeat));
+    }
+}
+
+impl Monitor<RobotMessage, ReplyMessage> for Publisher {
+    #[cfg(feature = "bench")]
+    fn count(&self) -> u32 {
+        board::cycle_counter()
+    }
+
+    fn message(
+        &mut self,
+        engine: &DeviceEngine,
+        _bytes: usize,
+        _outcome: &Outcome,
+        _counts: (u32, u32),
+    ) {
+        #[cfg(feature = "bench")]
+        rri_firmware::bench::message(_bytes, matches!(_outcome, Outcome::Reply { .. }), _counts);
+        self.publish(engine);
+    }
+
+    fn polled(&mut self, engine: &DeviceEngine) {
+        self.publish(engine);
+    }
+}
+
+/// 100 Hz: the board's reading, or the simulated distance where the board
+/// has no sensor (QEMU).
+#[embassy_executor::task]
+async fn sampler(mut source: board::Sampler, mut writer: SampleWriter<'static, 1>) -> ! {
+    let mut ticker = Ticker::every(Duration::from_millis(10));
+    loop {
+        let time = EmbassyClock.now();
+        let value = source.read().unwrap_or_else(|| simulated_distance(time));
+        writer.publish(&Reading {
+            values: [value],
+            time,
+        });
+        ticker.next().await;
+    }
+}
+
+/// 10 Hz: the watchdog (fed only while the cycle turns), the LEDs (S2 state
+/// on LED 0; LED 1 toggles with answered cycles) and the log.
+#[embassy_executor::task]
+async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Watchdog) -> ! {
+    watchdog.start(WATCHDOG_MS);
+    let mut ticker = Ticker::every(Duration::from_millis(100));
+    let mut last = PUBLISHED.latest();
+    let mut tick: u32 = 0;
+    loop {
+        ticker.next().await;
+        tick = tick.wrapping_add(1);
+        let now = PUBLISHED.latest();
+        // A TCP cycle waits in accept without turning; it has nothing to
+        // hang on there.
+        let waiting = TCP && now.state != SensorState::Operating;
+        if now.heartbeat != last.heartbeat || waiting {
+            watchdog.feed();
+        }
+        leds.set(0, state_led(now.state, tick));
+        leds.set(1, now.stats.answered % 2 == 1);
+        if now.state != last.state || now.error != last.error {
+            defmt::info!(
+                "state {} (error {})",
+                now.state,
+                now.error.map(|e| e.code())
+            );
+        }
+        for kind in DecodeErrorKind::ALL {
+            let (was, is) = (
+                last.stats.decode_errors_of(kind),
+                now.stats.decode_errors_of(kind),
+            );
+            if is > was {
+                defmt::warn!("decode error {}: {} more ({} in all)", kind, is - was, is);
+            }
+        }
+        if tick % 10 == 0 {
+            log_counters(&now);
+        }
+        last = now;
+    }
+}
+
+/// S2 on one LED: off UNDEFINED, slow blink CONNECTED, on OPERATING, fast
+/// blink ERROR, on CLOSED.
+fn state_led(state: SensorState, tick: u32) -> bool {
+    match state {
+        SensorState::Undefined => false,
+        SensorState::Connected => (tick / 5) % 2 == 0,
+        SensorState::Operating | SensorState::Closed => true,
+        SensorState::Error => tick % 2 == 0,
+    }
+}
+
+fn log_counters(s: &Snapshot) {
+    let st = &s.stats;
+    defmt::info!(
+        "counters: received {} answered {} dropped foreign {} decode {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {}",
+        st.received,
+        st.answered,
+        st.dropped_foreign,
+        st.dropped_decode,
+        st.lost,
+        st.duplicates,
+        st.reordered,
+        st.timeouts,
+        if st.latency.count > 0 { st.latency.max_us } else { 0 },
+        st.latency.total_us.checked_div(u64::from(st.latency.count)).unwrap_or(0),
+    );
+}
+
+/// Bench builds: every cycle record, logged from thread mode.
+#[cfg(feature = "bench")]
+#[embassy_executor::task]
+async fn bench_log() -> ! {
+    use rri_firmware::bench::{LOST, RECORDS};
+    loop {
+        let r = RECORDS.receive().await;
+        defmt::info!(
+            "bench bytes={=u32} answered={=bool} compute={=u32} full={=u32} lost={=u32}",
+            r.bytes,
+            r.answered,
+            r.compute,
+            r.full,
+            LOST.load(core::sync::atomic::Ordering::Relaxed)
+        );
+    }
+}

@@ -1,0 +1,100 @@
+//! The cycle's state and counters, published for the tasks that watch it.
+//!
+//! The cycle runs on the urgent executor and owns the engine; housekeeping
+//! (LEDs, watchdog, logs) runs in thread mode and must never hold the
+//! engine, or a slow log line could delay an answer. So after each turn the
+//! cycle copies a [`Snapshot`] into a [`Published`] cell (a few hundred
+//! bytes under a critical section, after the reply is on its way) and the
+//! watchers read the latest copy whenever they like.
+
+use crate::engine::{Endpoint, Engine, ErrorCode, SensorState, Stats};
+use crate::schema::MessageCodec;
+use core::cell::Cell;
+use critical_section::Mutex;
+
+/// What the watchers see of the cycle.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Snapshot {
+    pub state: SensorState,
+    pub error: Option<ErrorCode>,
+    pub peer: Option<Endpoint>,
+    pub stats: Stats,
+    /// Turns of the cycle loop (messages and polls): the watchdog is fed
+    /// only while this moves.
+    pub heartbeat: u32,
+}
+
+impl Snapshot {
+    /// The engine's state after turn number `heartbeat`.
+    pub fn of<Rx, Tx>(engine: &Engine<Rx, Tx>, heartbeat: u32) -> Self
+    where
+        Rx: MessageCodec,
+        Tx: MessageCodec,
+        Rx::Data: Clone + Default,
+        Tx::Data: Default,
+    {
+        Snapshot {
+            state: engine.state(),
+            error: engine.error_code(),
+            peer: engine.peer(),
+            stats: engine.stats(),
+            heartbeat,
+        }
+    }
+}
+
+/// One writer (the cycle), any number of readers, none of them waiting for
+/// more than one copy.
+pub struct Published {
+    latest: Mutex<Cell<Snapshot>>,
+}
+
+impl Default for Published {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Published {
+    pub const fn new() -> Self {
+        Published {
+            latest: Mutex::new(Cell::new(Snapshot {
+                state: SensorState::Undefined,
+                error: None,
+                peer: None,
+                stats: Stats::ZERO,
+                heartbeat: 0,
+            })),
+        }
+    }
+
+    pub fn publish(&self, snapshot: &Snapshot) {
+        critical_section::with(|cs| self.latest.borrow(cs).set(*snapshot));
+    }
+
+    pub fn latest(&self) -> Snapshot {
+        critical_section::with(|cs| self.latest.borrow(cs).get())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn readers_get_the_last_published_copy() {
+        let cell = Published::new();
+        assert_eq!(cell.latest(), Snapshot::default());
+        let mut s = Snapshot {
+            state: SensorState::Operating,
+            heartbeat: 7,
+            ..Snapshot::default()
+        };
+        s.stats.answered = 3;
+        cell.publish(&s);
+        assert_eq!(cell.latest(), s);
+        s.heartbeat = 8;
+        cell.publish(&s);
+        assert_eq!(cell.latest().heartbeat, 8);
+    }
+}
