@@ -11,6 +11,7 @@ pub mod layouts {
     include!(concat!(env!("OUT_DIR"), "/layouts.rs"));
 }
 
+pub mod qemu;
 pub mod robot;
 pub mod sensor;
 

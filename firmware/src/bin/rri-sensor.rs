@@ -221,7 +221,8 @@ async fn sampler(mut source: board::Sampler, mut writer: SampleWriter<'static, 1
 async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Watchdog) -> ! {
     watchdog.start(WATCHDOG_MS);
     let mut ticker = Ticker::every(Duration::from_millis(100));
-    let mut last = PUBLISHED.latest();
+    // From UNDEFINED, so the first state the cycle reaches is logged too.
+    let mut last = Snapshot::default();
     let mut tick: u32 = 0;
     loop {
         ticker.next().await;
@@ -236,11 +237,10 @@ async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Watchdog) -> !
         leds.set(0, state_led(now.state, tick));
         leds.set(1, now.stats.answered % 2 == 1);
         if now.state != last.state || now.error != last.error {
-            defmt::info!(
-                "state {} (error {})",
-                now.state,
-                now.error.map(|e| e.code())
-            );
+            match now.error {
+                Some(e) => defmt::warn!("state {=str} {=u32}", now.state.name(), e.code()),
+                None => defmt::info!("state {=str}", now.state.name()),
+            }
         }
         for kind in DecodeErrorKind::ALL {
             let (was, is) = (

@@ -22,7 +22,7 @@ use std::io::{ErrorKind, Read, Write};
 use std::net::{SocketAddr, TcpStream, UdpSocket};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{mpsc, Arc};
+use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// Everything `cargo robot` takes.
@@ -47,6 +47,9 @@ pub struct RobotOptions {
     /// Id of the first message (to test the u32 wrap, S3).
     pub first_id: u32,
     pub progress: bool,
+    /// Lines of the device's own log (e.g. the QEMU board's defmt output),
+    /// printed above the progress bar as they come (`cargo demo`).
+    pub device_log: Option<Arc<Mutex<Vec<String>>>>,
 }
 
 impl RobotOptions {
@@ -67,6 +70,7 @@ impl RobotOptions {
             seed: 1,
             first_id: 1,
             progress: false,
+            device_log: None,
         }
     }
 }
@@ -238,6 +242,23 @@ impl Sim<'_> {
         // Around the live progress bar, not through it.
         self.bar.suspend(|| {
             let _ = writeln!(log, "[{t:9.3}s] controller: {what}");
+        });
+    }
+
+    /// Prints what the device logged since the last call.
+    fn device_lines(&mut self) {
+        let Some(shared) = &self.opts.device_log else {
+            return;
+        };
+        let lines: Vec<String> = match shared.lock() {
+            Ok(mut l) => l.drain(..).collect(),
+            Err(_) => return,
+        };
+        let log = &mut self.log;
+        self.bar.suspend(|| {
+            for line in &lines {
+                let _ = writeln!(log, "device: {line}");
+            }
         });
     }
 
@@ -595,6 +616,7 @@ pub fn run(
             );
         }
         if c % 50 == 0 {
+            sim.device_lines();
             let elapsed = start.elapsed().as_secs_f64().max(1e-9);
             sim.bar.set_position(c);
             sim.bar.set_message(format!(
@@ -615,6 +637,7 @@ pub fn run(
         sim.pump(drain.min(Instant::now() + rate), None);
     }
     sim.bar.finish_and_clear();
+    sim.device_lines();
 
     let mut s = sim.s.clone();
     s.lost = sim

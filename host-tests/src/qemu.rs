@@ -1,0 +1,336 @@
+//! The QEMU board from the host (`cargo demo`, `cargo qemu-bench`, tests):
+//! make sure QEMU is installed, build the firmware for `mps2-an500`, boot
+//! it with user-mode networking forwarding the device's channel port from
+//! 127.0.0.1, and decode its defmt log (semihosting writes it to QEMU's
+//! stdout) with the ELF's own table.
+
+use gsi_config::{Device, Protocol};
+use std::io::{Read, Write};
+use std::net::UdpSocket;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// QEMU's system emulator for Arm and the machine we boot.
+pub const QEMU: &str = "qemu-system-arm";
+pub const MACHINE: &str = "mps2-an500";
+/// The firmware's target and the features that pick the QEMU board.
+pub const TARGET: &str = "thumbv7em-none-eabihf";
+pub const BOARD_FEATURES: &str = "board,hal-board/mps2-an500";
+
+/// Finds `qemu-system-arm`; installs Debian's package when we are root,
+/// else says exactly what to install.
+pub fn ensure_qemu(out: &mut dyn Write) -> Result<(), String> {
+    if Command::new(QEMU)
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        return Ok(());
+    }
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
+    if !root || Command::new("apt-get").arg("--version").output().is_err() {
+        return Err(format!(
+            "{QEMU} is not installed. Install it (Debian/Ubuntu: `sudo apt-get install qemu-system-arm`; \
+             macOS: `brew install qemu`) and run this again."
+        ));
+    }
+    let _ = writeln!(out, "installing qemu-system-arm with apt-get (once)…");
+    for args in [
+        &["update", "-qq"][..],
+        &["install", "-y", "-qq", "qemu-system-arm"][..],
+    ] {
+        let status = Command::new("apt-get")
+            .args(args)
+            .env("DEBIAN_FRONTEND", "noninteractive")
+            .status()
+            .map_err(|e| format!("apt-get: {e}"))?;
+        if !status.success() {
+            return Err(format!("apt-get {} failed ({status})", args.join(" ")));
+        }
+    }
+    Ok(())
+}
+
+/// Builds the firmware for the QEMU board with `extra` features (e.g.
+/// `bench`), showing cargo's output, and copies the ELF to
+/// `target/qemu/<name>.elf` so builds with other features do not replace
+/// it.
+/// `gsi`: the GSI folder to build from (`RRI_GSI_DIR`), `None` for the
+/// caller's environment.
+pub fn build_firmware(extra: &[&str], gsi: Option<&Path>, name: &str) -> Result<PathBuf, String> {
+    let ws = crate::workspace();
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut features = BOARD_FEATURES.to_string();
+    for f in extra {
+        features.push(',');
+        features.push_str(f);
+    }
+    let mut cmd = Command::new(&cargo);
+    if let Some(dir) = gsi {
+        cmd.env("RRI_GSI_DIR", dir).env_remove("RRI_DEVICE");
+    }
+    let status = cmd
+        .current_dir(&ws)
+        .args([
+            "build",
+            "-p",
+            "rri-firmware",
+            "--bin",
+            "rri-sensor",
+            "--release",
+        ])
+        .args(["--target", TARGET, "--features", &features])
+        .status()
+        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
+    if !status.success() {
+        return Err(format!("the firmware build failed ({status})"));
+    }
+    let built = target_dir().join(TARGET).join("release").join("rri-sensor");
+    let dir = target_dir().join("qemu");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let elf = dir.join(format!("{name}.elf"));
+    std::fs::copy(&built, &elf)
+        .map_err(|e| format!("{} → {}: {e}", built.display(), elf.display()))?;
+    Ok(elf)
+}
+
+/// Cargo's target directory (`CARGO_TARGET_DIR` or `target/`).
+pub fn target_dir() -> PathBuf {
+    match std::env::var_os("CARGO_TARGET_DIR") {
+        Some(d) => PathBuf::from(d),
+        None => crate::workspace().join("target"),
+    }
+}
+
+/// A free port on 127.0.0.1 for QEMU to forward (released just before
+/// QEMU binds it).
+pub fn free_port() -> Result<u16, String> {
+    for _ in 0..20 {
+        let tcp =
+            std::net::TcpListener::bind("127.0.0.1:0").map_err(|e| format!("no free port: {e}"))?;
+        let port = tcp.local_addr().map_err(|e| e.to_string())?.port();
+        if UdpSocket::bind(("127.0.0.1", port)).is_ok() {
+            return Ok(port);
+        }
+    }
+    Err("no port free for both UDP and TCP on 127.0.0.1".into())
+}
+
+/// How to boot.
+#[derive(Clone, Debug)]
+pub struct Boot {
+    pub elf: PathBuf,
+    /// The device the firmware was built for (its address, channel port
+    /// and protocol set up the forward).
+    pub device: Device,
+    /// 127.0.0.1 port forwarded to the device's channel port.
+    pub host_port: u16,
+    /// `-icount shift=N`: the virtual clock advances 2^N ns per
+    /// instruction (deterministic counts); `None` runs in real time.
+    pub icount_shift: Option<u8>,
+}
+
+/// The device's IPv4 address and the user-mode network around it: QEMU's
+/// slirp must own the device's /24 for the forward to reach it.
+/// (`restrict=off`: with `restrict=on` slirp drops the guest's UDP
+/// replies.)
+fn slirp_network(boot: &Boot) -> Result<String, String> {
+    let address = &boot.device.network.address;
+    let octets: Option<Vec<u8>> = address.split('.').map(|p| p.parse().ok()).collect();
+    let Some([a, b, c, d]) = octets.and_then(|o| <[u8; 4]>::try_from(o).ok()) else {
+        return Err(format!(
+            "Description.xml's Network Address {address} is not an IPv4 address; the QEMU board needs one"
+        ));
+    };
+    let host = if d == 1 { 2 } else { 1 };
+    let proto = match boot.device.channel.protocol {
+        Protocol::Tcp => "tcp",
+        Protocol::Udp | Protocol::HpUdp => "udp",
+    };
+    Ok(format!(
+        "user,model=lan9118,net={a}.{b}.{c}.0/24,host={a}.{b}.{c}.{host},restrict=off,hostfwd={proto}:127.0.0.1:{hp}-{a}.{b}.{c}.{d}:{port}",
+        hp = boot.host_port,
+        port = boot.device.channel.port
+    ))
+}
+
+/// A running QEMU board and its decoded log.
+pub struct Qemu {
+    child: Child,
+    /// Lines not yet taken by [`Qemu::take_new`] (shared with the robot
+    /// simulator's `device_log`).
+    pub new_lines: Arc<Mutex<Vec<String>>>,
+    all: Arc<Mutex<Vec<String>>>,
+    reader: Option<JoinHandle<()>>,
+}
+
+impl Qemu {
+    /// The QEMU command line for `boot`.
+    pub fn command(boot: &Boot) -> Result<Command, String> {
+        let nic = slirp_network(boot)?;
+        let mut cmd = Command::new(QEMU);
+        cmd.args([
+            "-M", MACHINE, "-display", "none", "-serial", "none", "-monitor", "none",
+        ])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(["-nic", &nic])
+        .arg("-kernel")
+        .arg(&boot.elf);
+        if let Some(shift) = boot.icount_shift {
+            cmd.args(["-icount", &format!("shift={shift}")]);
+        }
+        Ok(cmd)
+    }
+
+    pub fn boot(boot: &Boot) -> Result<Qemu, String> {
+        let elf = std::fs::read(&boot.elf).map_err(|e| format!("{}: {e}", boot.elf.display()))?;
+        let mut child = Self::command(boot)?
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .map_err(|e| format!("cannot start {QEMU}: {e}"))?;
+        let stdout = child.stdout.take().ok_or("no stdout from QEMU")?;
+        let new_lines = Arc::new(Mutex::new(Vec::new()));
+        let all = Arc::new(Mutex::new(Vec::new()));
+        let (n, a) = (new_lines.clone(), all.clone());
+        let reader = std::thread::spawn(move || decode(elf, stdout, &n, &a));
+        Ok(Qemu {
+            child,
+            new_lines,
+            all,
+            reader: Some(reader),
+        })
+    }
+
+    /// Lines logged since the last call.
+    pub fn take_new(&self) -> Vec<String> {
+        self.new_lines
+            .lock()
+            .map(|mut l| l.drain(..).collect())
+            .unwrap_or_default()
+    }
+
+    /// Every line logged so far.
+    pub fn log(&self) -> Vec<String> {
+        self.all.lock().map(|l| l.clone()).unwrap_or_default()
+    }
+
+    /// Waits until a logged line contains `needle`.
+    pub fn wait_for(&mut self, needle: &str, timeout: Duration) -> Result<(), String> {
+        let end = Instant::now() + timeout;
+        loop {
+            if self.log().iter().any(|l| l.contains(needle)) {
+                return Ok(());
+            }
+            if let Ok(Some(status)) = self.child.try_wait() {
+                return Err(format!(
+                    "QEMU exited ({status}) before the device logged \"{needle}\""
+                ));
+            }
+            if Instant::now() > end {
+                let log = self.log();
+                let tail: Vec<String> = log
+                    .iter()
+                    .take(3)
+                    .chain(log.iter().skip(3.max(log.len().saturating_sub(5))))
+                    .cloned()
+                    .collect();
+                return Err(format!(
+                    "the device did not log \"{needle}\" within {timeout:?}; its last lines:\n  {}",
+                    if tail.is_empty() {
+                        "(nothing)".to_string()
+                    } else {
+                        tail.join("\n  ")
+                    }
+                ));
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// QEMU's exit status if it has ended (the firmware panicked or exited).
+    pub fn exited(&mut self) -> Option<ExitStatus> {
+        self.child.try_wait().ok().flatten()
+    }
+
+    /// Stops QEMU and returns the whole log.
+    pub fn stop(mut self) -> Vec<String> {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        if let Some(r) = self.reader.take() {
+            let _ = r.join();
+        }
+        self.log()
+    }
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Decodes the defmt stream into `[time LEVEL] message` lines.
+fn decode(elf: Vec<u8>, mut stdout: impl Read, new: &Mutex<Vec<String>>, all: &Mutex<Vec<String>>) {
+    let push = |line: String| {
+        if let Ok(mut n) = new.lock() {
+            n.push(line.clone());
+        }
+        if let Ok(mut a) = all.lock() {
+            a.push(line);
+        }
+    };
+    let table = match defmt_decoder::Table::parse(&elf) {
+        Ok(Some(t)) => t,
+        Ok(None) => return push("(the firmware has no defmt table)".into()),
+        Err(e) => return push(format!("(cannot read the defmt table: {e})")),
+    };
+    let mut decoder = table.new_stream_decoder();
+    let mut buf = [0u8; 4096];
+    loop {
+        let n = match stdout.read(&mut buf) {
+            Ok(0) | Err(_) => return,
+            Ok(n) => n,
+        };
+        decoder.received(&buf[..n]);
+        loop {
+            match decoder.decode() {
+                Ok(frame) => {
+                    let level = frame
+                        .level()
+                        .map(|l| l.as_str().to_uppercase())
+                        .unwrap_or_default();
+                    let ts = frame
+                        .display_timestamp()
+                        .map(|t| t.to_string())
+                        .unwrap_or_default();
+                    push(format!("[{ts:>12} {level:<5}] {}", frame.display_message()));
+                }
+                Err(defmt_decoder::DecodeError::UnexpectedEof) => break,
+                Err(defmt_decoder::DecodeError::Malformed) => {
+                    push("(malformed defmt frame)".into())
+                }
+            }
+        }
+    }
+}
+
+/// The firmware ELF's allocated sections: (name, address, size).
+pub fn sections(elf: &Path) -> Result<Vec<(String, u64, u64)>, String> {
+    use object::{Object, ObjectSection};
+    let data = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*data).map_err(|e| format!("{}: {e}", elf.display()))?;
+    Ok(file
+        .sections()
+        .filter(|s| s.address() != 0 || s.name() == Ok(".vector_table"))
+        .map(|s| (s.name().unwrap_or("?").to_string(), s.address(), s.size()))
+        .collect())
+}
