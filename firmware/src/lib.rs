@@ -30,6 +30,8 @@
     )
 )]
 
+#[cfg(feature = "codec-baseline")]
+pub mod baseline;
 #[cfg(feature = "bench")]
 pub mod bench;
 pub mod codec;

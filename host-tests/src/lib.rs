@@ -12,6 +12,7 @@ pub mod layouts {
 }
 
 pub mod qemu;
+pub mod qemu_bench;
 pub mod robot;
 pub mod sensor;
 

@@ -78,6 +78,18 @@ fn main() -> ! {
         layout::CHANNEL_PORT,
         if TCP { "TCP" } else { "UDP" },
     );
+    #[cfg(feature = "bench")]
+    for (name, message) in rri_firmware::bench::CODEC_CORPUS {
+        let c = rri_firmware::bench::compare_codecs(message, 20, board::cycle_counter);
+        defmt::info!(
+            "codec {=str} bytes={=usize} ours={=u32} tokenizer={=u32} baseline={=u32}",
+            name,
+            message.len(),
+            c.ours,
+            c.tokenizer,
+            c.baseline
+        );
+    }
     let Some((writer, reader)) = SAMPLES.split() else {
         defmt::panic!("the sample cell was split twice")
     };
@@ -190,7 +202,14 @@ impl Monitor<RobotMessage, ReplyMessage> for Publisher {
         _counts: (u32, u32),
     ) {
         #[cfg(feature = "bench")]
-        rri_firmware::bench::message(_bytes, matches!(_outcome, Outcome::Reply { .. }), _counts);
+        rri_firmware::bench::message(
+            _bytes,
+            match _outcome {
+                Outcome::Reply { to, .. } => Some(to.port),
+                Outcome::Dropped(_) => None,
+            },
+            _counts,
+        );
         self.publish(engine);
     }
 
@@ -251,7 +270,7 @@ async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Watchdog) -> !
                 defmt::warn!("decode error {}: {} more ({} in all)", kind, is - was, is);
             }
         }
-        if tick % 10 == 0 {
+        if tick.is_multiple_of(10) {
             log_counters(&now);
         }
         last = now;
@@ -263,9 +282,9 @@ async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Watchdog) -> !
 fn state_led(state: SensorState, tick: u32) -> bool {
     match state {
         SensorState::Undefined => false,
-        SensorState::Connected => (tick / 5) % 2 == 0,
+        SensorState::Connected => (tick / 5).is_multiple_of(2),
         SensorState::Operating | SensorState::Closed => true,
-        SensorState::Error => tick % 2 == 0,
+        SensorState::Error => tick.is_multiple_of(2),
     }
 }
 

@@ -12,10 +12,10 @@
 //! N=1000 and N=2000 and prints (Ir(2000) − Ir(1000)) / 1000 for each path.
 
 use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMessage};
+use rri_firmware::baseline::{self, Naive};
 use rri_firmware::codec::{decode, encode};
 use rri_firmware::value::Time;
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::fmt::Write as _;
 use std::hint::black_box;
 use std::process::{Command, ExitCode};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -96,88 +96,9 @@ fn tokenizer_only(bytes: &[u8], n: u64) -> Result<usize, String> {
     let text = std::str::from_utf8(bytes).map_err(|e| e.to_string())?;
     let mut total = 0;
     for _ in 0..n {
-        for token in xmlparser::Tokenizer::from(black_box(text)) {
-            let _ = black_box(token.map_err(|e| e.to_string())?);
-            total += 1;
-        }
+        total += baseline::tokenize(black_box(text)).ok_or("xmlparser rejected the message")?;
     }
     Ok(total)
-}
-
-/// What a first implementation would do: match names as strings, parse
-/// with `str::parse`, format with `write!("{:.3}")`.
-#[derive(Default)]
-struct Naive {
-    id: u32,
-    ts: f64,
-    mode: heapless::String<16>,
-    ts_act: f64,
-    ts_des: f64,
-    p_act: [f32; 6],
-    j_act: [f32; 6],
-    p_des: [f32; 6],
-    j_des: [f32; 6],
-    app: [f32; 18],
-}
-
-fn naive_decode(text: &str, out: &mut Naive) -> Option<()> {
-    use xmlparser::{Token, Tokenizer};
-    let mut current = "";
-    for token in Tokenizer::from(text) {
-        match token.ok()? {
-            Token::ElementStart { local, .. } => current = local.as_str(),
-            Token::Attribute { local, value, .. } => {
-                let key = local.as_str();
-                let v = value.as_str().trim();
-                let idx = |names: [&str; 6]| names.iter().position(|n| *n == key);
-                const F: [&str; 6] = ["X", "Y", "Z", "Rx", "Ry", "Rz"];
-                const J: [&str; 6] = ["J1", "J2", "J3", "J4", "J5", "J6"];
-                match current {
-                    "RobData" if key == "Id" => out.id = v.parse().ok()?,
-                    "RobData" if key == "Ts" => out.ts = v.parse().ok()?,
-                    "P_act" => out.p_act[idx(F)?] = v.parse().ok()?,
-                    "P_des" => out.p_des[idx(F)?] = v.parse().ok()?,
-                    "J_act" => out.j_act[idx(J)?] = v.parse().ok()?,
-                    "J_des" => out.j_des[idx(J)?] = v.parse().ok()?,
-                    "AppData" => {
-                        let i: usize = key.get(1..)?.parse().ok()?;
-                        *out.app.get_mut(i.checked_sub(1)?)? = v.parse().ok()?;
-                    }
-                    _ => {}
-                }
-            }
-            Token::ElementEnd { end, .. } if !matches!(end, xmlparser::ElementEnd::Open) => {
-                current = "";
-            }
-            Token::Text { text } => {
-                let t = text.as_str().trim();
-                match current {
-                    "RobMode" => {
-                        out.mode.clear();
-                        out.mode.push_str(t).ok()?;
-                    }
-                    "Ts_act" => out.ts_act = t.parse().ok()?,
-                    "Ts_des" => out.ts_des = t.parse().ok()?,
-                    _ => {}
-                }
-            }
-            _ => {}
-        }
-    }
-    Some(())
-}
-
-fn naive_encode(id: u32, ts: f64, app: &[f32; 18], out: &mut heapless::String<2048>) -> Option<()> {
-    out.clear();
-    write!(
-        out,
-        "<SensData Id=\"{id}\" Ts=\"{ts:.3}\"><EStr>ok</EStr><AppData"
-    )
-    .ok()?;
-    for (i, v) in app.iter().enumerate() {
-        write!(out, " X{}=\"{v:.3}\"", i + 1).ok()?;
-    }
-    out.push_str("/></SensData>").ok()
 }
 
 fn baseline(bytes: &[u8], n: u64) -> Result<usize, String> {
@@ -186,9 +107,9 @@ fn baseline(bytes: &[u8], n: u64) -> Result<usize, String> {
     let mut total = 0;
     for _ in 0..n {
         let text = std::str::from_utf8(black_box(bytes)).map_err(|e| e.to_string())?;
-        naive_decode(text, &mut robot).ok_or("the baseline could not decode the message")?;
-        naive_encode(robot.id, robot.ts, &robot.app, &mut out).ok_or("baseline reply too long")?;
-        total += black_box(out.as_bytes()).len();
+        total += baseline::cycle(text, &mut robot, &mut out)
+            .ok_or("the baseline could not decode the message or its reply is too long")?;
+        black_box(out.as_bytes());
     }
     Ok(total)
 }

@@ -175,15 +175,20 @@ fn font() -> Result<&'static [u8], String> {
 
 /// A latency histogram over a latency-over-time plot, as SVG or PNG (by
 /// the file's extension).
-pub fn write_plot(path: &Path, cycles: &[Cycle], rate_us: u64) -> Result<(), String> {
-    use plotters::prelude::*;
+/// Registers the TrueType font plotters draws labels with (once).
+pub fn ensure_font() -> Result<(), String> {
     static FONT: std::sync::OnceLock<Result<(), String>> = std::sync::OnceLock::new();
     FONT.get_or_init(|| {
         let bytes = font()?;
-        plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
+        plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, bytes)
             .map_err(|_| "font not usable".to_string())
     })
-    .clone()?;
+    .clone()
+}
+
+pub fn write_plot(path: &Path, cycles: &[Cycle], rate_us: u64) -> Result<(), String> {
+    use plotters::prelude::*;
+    ensure_font()?;
     let points: Vec<(f64, f64)> = cycles
         .iter()
         .filter_map(|c| c.latency_us().map(|l| (c.sent_us as f64 / 1e6, l as f64)))
