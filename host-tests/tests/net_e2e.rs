@@ -448,3 +448,190 @@ fn tcp_cycle_over_embassy_net_frames_answers_and_closes() {
     assert_eq!((s.answered, s.framing_errors, s.closed), (200, 1, 1));
     assert_eq!(engine.state(), SensorState::Closed);
 }
+
+/// Fills the reply with its widest values. The manual's reply can reach
+/// 1,473 bytes only with a negative `Ts`, which a device clock never has:
+/// with a real clock its longest reply is 1,472 bytes, one frame of UDP
+/// payload, so replies of this layout never need fragmenting (smoltcp's
+/// fragmentation is on, and sized by `net::UdpBuffers`, for layouts whose
+/// replies do).
+struct WidestReply;
+
+impl rri_firmware::engine::Application<layout::RobotData, layout::SensorData> for WidestReply {
+    fn cycle(
+        &mut self,
+        _: &layout::RobotData,
+        reply: &mut layout::SensorData,
+        _: &rri_firmware::engine::CycleInfo<'_>,
+    ) {
+        reply.error_string.clear();
+        while reply.error_string.push('"').is_ok() {}
+        reply.application_data = [-f32::MAX; 18];
+    }
+}
+
+/// A UDP datagram from the robot cut into IPv4 fragments of at most
+/// `fragment` payload bytes (a multiple of 8), as whole Ethernet frames.
+fn robot_fragments(
+    device_ip: [u8; 4],
+    payload: &[u8],
+    fragment: usize,
+    ident: u16,
+) -> Vec<Vec<u8>> {
+    // The whole datagram first (checksums included), then cut its IP payload.
+    let whole = robot_frame(device_ip, payload);
+    let eth = EthernetFrame::new_checked(&whole[..]).unwrap();
+    let ip = Ipv4Packet::new_checked(eth.payload()).unwrap();
+    let udp_bytes = ip.payload().to_vec();
+    let mut frames = Vec::new();
+    for (i, chunk) in udp_bytes.chunks(fragment).enumerate() {
+        let offset = i * fragment;
+        let more = offset + chunk.len() < udp_bytes.len();
+        let mut frame = vec![0u8; 14 + 20 + chunk.len()];
+        frame[..14].copy_from_slice(&whole[..14]);
+        frame[14..34].copy_from_slice(&whole[14..34]);
+        let mut p = Ipv4Packet::new_unchecked(&mut frame[14..]);
+        p.set_total_len((20 + chunk.len()) as u16);
+        p.set_ident(ident);
+        p.clear_flags();
+        p.set_more_frags(more);
+        p.set_frag_offset(offset as u16);
+        p.payload_mut().copy_from_slice(chunk);
+        p.fill_checksum();
+        frames.push(frame);
+    }
+    frames
+}
+
+/// Puts IPv4 fragments from the device back together: the UDP payload
+/// once the last fragment is in, and how many frames it took.
+#[derive(Default)]
+struct Reassembly {
+    parts: Vec<(usize, Vec<u8>)>,
+    total: Option<usize>,
+}
+
+impl Reassembly {
+    fn add(&mut self, frame: &[u8], device_ip: [u8; 4]) -> Option<(Vec<u8>, usize)> {
+        let eth = EthernetFrame::new_checked(frame).expect("Ethernet");
+        if eth.ethertype() != EthernetProtocol::Ipv4 {
+            return None;
+        }
+        let ip = Ipv4Packet::new_checked(eth.payload()).expect("IPv4");
+        assert!(ip.verify_checksum(), "IPv4 checksum of every fragment");
+        assert_eq!(ip.src_addr(), Ipv4Address::from(device_ip));
+        let offset = ip.frag_offset() as usize;
+        if !ip.more_frags() {
+            self.total = Some(offset + ip.payload().len());
+        }
+        self.parts.push((offset, ip.payload().to_vec()));
+        let total = self.total?;
+        if self.parts.iter().map(|p| p.1.len()).sum::<usize>() < total {
+            return None;
+        }
+        self.parts.sort_by_key(|p| p.0);
+        let udp_bytes: Vec<u8> = self.parts.iter().flat_map(|p| p.1.clone()).collect();
+        let udp = UdpPacket::new_checked(&udp_bytes[..]).expect("UDP");
+        assert!(
+            udp.verify_checksum(
+                &Ipv4Address::from(device_ip).into(),
+                &Ipv4Address::from(ROBOT_IP).into()
+            ),
+            "UDP checksum over the reassembled datagram"
+        );
+        Some((udp.payload().to_vec(), self.parts.len()))
+    }
+}
+
+#[test]
+fn robot_datagrams_longer_than_a_frame_arrive_in_ipv4_fragments_and_are_answered() {
+    let device_ip = layout::NETWORK_IPV4.expect("the example's address is IPv4");
+    MockDriver::get().reset();
+    let to_device: Frames = Rc::default();
+    let from_device: Frames = Rc::default();
+    let driver = MemDriver {
+        to_device: to_device.clone(),
+        from_device: from_device.clone(),
+        mac: DEVICE_MAC,
+    };
+    let config = embassy_net::Config::ipv4_static(StaticConfigV4 {
+        address: Ipv4Cidr::new(Ipv4Address::from(device_ip), 24),
+        gateway: None,
+        dns_servers: Default::default(),
+    });
+    let mut resources = StackResources::<2>::new();
+    let (stack, mut runner) = embassy_net::new(driver, config, &mut resources, 0x5eed);
+    let mut app = WidestReply;
+    let mut engine: Engine<RobDataMessage, SensDataMessage> = Engine::new(layout::ENGINE_CONFIG);
+    let mut buffers = UdpBuffers::<{ layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>::new();
+    let clock = EmbassyClock;
+    let mut monitor = ();
+    {
+        let mut net = pin!(runner.run());
+        let mut task = pin!(udp_cycle(
+            stack,
+            layout::CHANNEL_PORT,
+            &mut engine,
+            &mut app,
+            &clock,
+            &mut buffers,
+            &mut monitor
+        ));
+        let mut step = |n: usize| {
+            for _ in 0..n {
+                assert!(poll_once(net.as_mut()).is_pending());
+                assert!(poll_once(task.as_mut()).is_pending());
+                MockDriver::get().advance(Duration::from_micros(10));
+            }
+        };
+        step(50);
+        for (round, id) in [41u32, 42, 43].into_iter().enumerate() {
+            // The manual's message padded to the layout's receive bound
+            // (3,557 bytes): three fragments of at most 1,480 bytes.
+            let head = format!(
+                r#"<RobData Id="{id}" Ts="1.202"><RobMode>Auto</RobMode><P_act X="1620.0" Y="0" Z="300" Rx="180" Ry="0" Rz="0"/>"#
+            );
+            let tail = "</RobData>";
+            let pad = layout::MAX_RECEIVE_LEN - head.len() - tail.len();
+            let request = format!("{head}{}{tail}", " ".repeat(pad));
+            assert_eq!(request.len(), layout::MAX_RECEIVE_LEN);
+            let fragments =
+                robot_fragments(device_ip, request.as_bytes(), 1480, 0x4200 + round as u16);
+            assert_eq!(fragments.len(), 3);
+            // Out of order, as a switch may deliver them.
+            for i in [2, 0, 1] {
+                to_device.borrow_mut().push_back(fragments[i].clone());
+            }
+            let mut reassembly = Reassembly::default();
+            let mut reply = None;
+            for _ in 0..400 {
+                step(1);
+                let frames: Vec<Vec<u8>> = from_device.borrow_mut().drain(..).collect();
+                for f in frames {
+                    if EthernetFrame::new_checked(&f[..]).unwrap().ethertype()
+                        == EthernetProtocol::Arp
+                    {
+                        let _ = robot_receive(&f, device_ip, &to_device);
+                    } else if let Some(done) = reassembly.add(&f, device_ip) {
+                        reply = Some(done);
+                    }
+                }
+                if reply.is_some() {
+                    break;
+                }
+            }
+            let (payload, frames) =
+                reply.unwrap_or_else(|| panic!("no reply to the fragmented message {id}"));
+            assert!(payload.len() <= 1472, "{} bytes", payload.len());
+            assert_eq!(frames, 1, "the widest reply of this layout fits one frame");
+            let mut data = layout::SensorData::default();
+            let d = decode::<SensDataMessage>(&payload, &mut data)
+                .expect("the reassembled reply decodes");
+            assert_eq!(d.id, id, "M8 across fragments");
+            assert_eq!(data.application_data, [-f32::MAX; 18]);
+            MockDriver::get().advance(Duration::from_micros(3000));
+        }
+    }
+    let s = engine.stats();
+    assert_eq!((s.received, s.answered, s.dropped_decode), (3, 3, 0));
+}
