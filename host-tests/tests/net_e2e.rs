@@ -178,13 +178,25 @@ fn robot_receive(frame: &[u8], device_ip: [u8; 4], to_device: &Frames) -> Option
     }
 }
 
-fn poll_once<F: Future>(f: std::pin::Pin<&mut F>) -> Poll<F::Output> {
-    f.poll(&mut Context::from_waker(Waker::noop()))
+/// A static IPv4 configuration on a /24.
+fn net_config(ip: [u8; 4]) -> embassy_net::Config {
+    embassy_net::Config::ipv4_static(StaticConfigV4 {
+        address: Ipv4Cidr::new(Ipv4Address::from(ip), 24),
+        gateway: None,
+        dns_servers: Default::default(),
+    })
 }
 
-#[test]
-fn thousand_cycles_over_embassy_net_with_real_frames() {
-    let device_ip = layout::NETWORK_IPV4.expect("the example's address is IPv4");
+/// The device's embassy-net stack over a fresh in-memory Ethernet (the mock
+/// clock reset): the stack, its runner, the frames to it and from it.
+fn device_stack(
+    resources: &mut StackResources<2>,
+) -> (
+    embassy_net::Stack<'_>,
+    embassy_net::Runner<'_, MemDriver>,
+    Frames,
+    Frames,
+) {
     MockDriver::get().reset();
     let to_device: Frames = Rc::default();
     let from_device: Frames = Rc::default();
@@ -193,13 +205,20 @@ fn thousand_cycles_over_embassy_net_with_real_frames() {
         from_device: from_device.clone(),
         mac: DEVICE_MAC,
     };
-    let config = embassy_net::Config::ipv4_static(StaticConfigV4 {
-        address: Ipv4Cidr::new(Ipv4Address::from(device_ip), 24),
-        gateway: None,
-        dns_servers: Default::default(),
-    });
+    let device_ip = layout::NETWORK_IPV4.expect("the example's address is IPv4");
+    let (stack, runner) = embassy_net::new(driver, net_config(device_ip), resources, 0x5eed);
+    (stack, runner, to_device, from_device)
+}
+
+fn poll_once<F: Future>(f: std::pin::Pin<&mut F>) -> Poll<F::Output> {
+    f.poll(&mut Context::from_waker(Waker::noop()))
+}
+
+#[test]
+fn thousand_cycles_over_embassy_net_with_real_frames() {
+    let device_ip = layout::NETWORK_IPV4.expect("the example's address is IPv4");
     let mut resources = StackResources::<2>::new();
-    let (stack, mut runner) = embassy_net::new(driver, config, &mut resources, 0x5eed);
+    let (stack, mut runner, to_device, from_device) = device_stack(&mut resources);
 
     let cell = SampleCell::<1>::new();
     let (mut sampler, reader) = cell.split().expect("split");
@@ -333,13 +352,6 @@ fn tcp_cycle_over_embassy_net_frames_answers_and_closes() {
         to_device: b.clone(),
         from_device: a.clone(),
         mac: ROBOT_MAC,
-    };
-    let net_config = |ip: [u8; 4]| {
-        embassy_net::Config::ipv4_static(StaticConfigV4 {
-            address: Ipv4Cidr::new(Ipv4Address::from(ip), 24),
-            gateway: None,
-            dns_servers: Default::default(),
-        })
     };
     let mut device_res = StackResources::<2>::new();
     let mut robot_res = StackResources::<2>::new();
@@ -546,21 +558,8 @@ impl Reassembly {
 #[test]
 fn robot_datagrams_longer_than_a_frame_arrive_in_ipv4_fragments_and_are_answered() {
     let device_ip = layout::NETWORK_IPV4.expect("the example's address is IPv4");
-    MockDriver::get().reset();
-    let to_device: Frames = Rc::default();
-    let from_device: Frames = Rc::default();
-    let driver = MemDriver {
-        to_device: to_device.clone(),
-        from_device: from_device.clone(),
-        mac: DEVICE_MAC,
-    };
-    let config = embassy_net::Config::ipv4_static(StaticConfigV4 {
-        address: Ipv4Cidr::new(Ipv4Address::from(device_ip), 24),
-        gateway: None,
-        dns_servers: Default::default(),
-    });
     let mut resources = StackResources::<2>::new();
-    let (stack, mut runner) = embassy_net::new(driver, config, &mut resources, 0x5eed);
+    let (stack, mut runner, to_device, from_device) = device_stack(&mut resources);
     let mut app = WidestReply;
     let mut engine: Engine<RobDataMessage, SensDataMessage> = Engine::new(layout::ENGINE_CONFIG);
     let mut buffers = UdpBuffers::<{ layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>::new();
