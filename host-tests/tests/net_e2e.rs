@@ -187,16 +187,18 @@ fn net_config(ip: [u8; 4]) -> embassy_net::Config {
     })
 }
 
-/// The device's embassy-net stack over a fresh in-memory Ethernet (the mock
-/// clock reset): the stack, its runner, the frames to it and from it.
-fn device_stack(
-    resources: &mut StackResources<2>,
-) -> (
-    embassy_net::Stack<'_>,
-    embassy_net::Runner<'_, MemDriver>,
-    Frames,
-    Frames,
-) {
+/// The boards' UDP cycle task (`udp_cycle`) with `engine` and `app` on an
+/// embassy-net stack over a fresh in-memory Ethernet (the mock clock
+/// reset), with the link up and the socket bound. `body` gets `step(n)`,
+/// which polls the stack and the task `n` times, 10 µs of mock time each,
+/// and the frames to the device and from it.
+fn with_udp_device<A>(
+    engine: &mut Engine<RobDataMessage, SensDataMessage>,
+    app: &mut A,
+    body: impl FnOnce(&mut dyn FnMut(usize), &Frames, &Frames),
+) where
+    A: rri_firmware::engine::Application<layout::RobotData, layout::SensorData>,
+{
     MockDriver::get().reset();
     let to_device: Frames = Rc::default();
     let from_device: Frames = Rc::default();
@@ -206,8 +208,30 @@ fn device_stack(
         mac: DEVICE_MAC,
     };
     let device_ip = layout::NETWORK_IPV4.expect("the example's address is IPv4");
-    let (stack, runner) = embassy_net::new(driver, net_config(device_ip), resources, 0x5eed);
-    (stack, runner, to_device, from_device)
+    let mut resources = StackResources::<2>::new();
+    let (stack, mut runner) =
+        embassy_net::new(driver, net_config(device_ip), &mut resources, 0x5eed);
+    let mut buffers = UdpBuffers::<{ layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>::new();
+    let mut monitor = ();
+    let mut net = pin!(runner.run());
+    let mut task = pin!(udp_cycle(
+        stack,
+        layout::CHANNEL_PORT,
+        engine,
+        app,
+        &EmbassyClock,
+        &mut buffers,
+        &mut monitor
+    ));
+    let mut step = |n: usize| {
+        for _ in 0..n {
+            assert!(poll_once(net.as_mut()).is_pending());
+            assert!(poll_once(task.as_mut()).is_pending());
+            MockDriver::get().advance(Duration::from_micros(10));
+        }
+    };
+    step(50); // link up, socket bound
+    body(&mut step, &to_device, &from_device);
 }
 
 fn poll_once<F: Future>(f: std::pin::Pin<&mut F>) -> Poll<F::Output> {
@@ -217,37 +241,12 @@ fn poll_once<F: Future>(f: std::pin::Pin<&mut F>) -> Poll<F::Output> {
 #[test]
 fn thousand_cycles_over_embassy_net_with_real_frames() {
     let device_ip = layout::NETWORK_IPV4.expect("the example's address is IPv4");
-    let mut resources = StackResources::<2>::new();
-    let (stack, mut runner, to_device, from_device) = device_stack(&mut resources);
-
     let cell = SampleCell::<1>::new();
     let (mut sampler, reader) = cell.split().expect("split");
     let mut app = DemoApp::new(reader);
     let mut engine: Engine<RobDataMessage, SensDataMessage> = Engine::new(layout::ENGINE_CONFIG);
-    let mut buffers = UdpBuffers::<{ layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>::new();
     let clock = EmbassyClock;
-
-    let mut monitor = ();
-    {
-        let mut net = pin!(runner.run());
-        let mut task = pin!(udp_cycle(
-            stack,
-            layout::CHANNEL_PORT,
-            &mut engine,
-            &mut app,
-            &clock,
-            &mut buffers,
-            &mut monitor
-        ));
-        let mut step = |n: usize| {
-            for _ in 0..n {
-                assert!(poll_once(net.as_mut()).is_pending());
-                assert!(poll_once(task.as_mut()).is_pending());
-                MockDriver::get().advance(Duration::from_micros(10));
-            }
-        };
-        step(50); // link up, socket bound
-
+    with_udp_device(&mut engine, &mut app, |step, to_device, from_device| {
         let mut replies = 0;
         for cycle in 0..1000u32 {
             // The sampler publishes a reading, then the robot's message arrives.
@@ -271,7 +270,7 @@ fn thousand_cycles_over_embassy_net_with_real_frames() {
                 step(1);
                 let frames: Vec<Vec<u8>> = from_device.borrow_mut().drain(..).collect();
                 for f in frames {
-                    if let Some(payload) = robot_receive(&f, device_ip, &to_device) {
+                    if let Some(payload) = robot_receive(&f, device_ip, to_device) {
                         assert!(reply.is_none(), "one reply per message");
                         reply = Some(payload);
                     }
@@ -307,7 +306,7 @@ fn thousand_cycles_over_embassy_net_with_real_frames() {
             MockDriver::get().advance(Duration::from_micros(3000));
         }
         assert_eq!(replies, 1000);
-    }
+    });
     let s = engine.stats();
     assert_eq!(
         (
@@ -558,32 +557,9 @@ impl Reassembly {
 #[test]
 fn robot_datagrams_longer_than_a_frame_arrive_in_ipv4_fragments_and_are_answered() {
     let device_ip = layout::NETWORK_IPV4.expect("the example's address is IPv4");
-    let mut resources = StackResources::<2>::new();
-    let (stack, mut runner, to_device, from_device) = device_stack(&mut resources);
     let mut app = WidestReply;
     let mut engine: Engine<RobDataMessage, SensDataMessage> = Engine::new(layout::ENGINE_CONFIG);
-    let mut buffers = UdpBuffers::<{ layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>::new();
-    let clock = EmbassyClock;
-    let mut monitor = ();
-    {
-        let mut net = pin!(runner.run());
-        let mut task = pin!(udp_cycle(
-            stack,
-            layout::CHANNEL_PORT,
-            &mut engine,
-            &mut app,
-            &clock,
-            &mut buffers,
-            &mut monitor
-        ));
-        let mut step = |n: usize| {
-            for _ in 0..n {
-                assert!(poll_once(net.as_mut()).is_pending());
-                assert!(poll_once(task.as_mut()).is_pending());
-                MockDriver::get().advance(Duration::from_micros(10));
-            }
-        };
-        step(50);
+    with_udp_device(&mut engine, &mut app, |step, to_device, from_device| {
         for (round, id) in [41u32, 42, 43].into_iter().enumerate() {
             // The manual's message padded to the layout's receive bound
             // (3,557 bytes): three fragments of at most 1,480 bytes.
@@ -610,7 +586,7 @@ fn robot_datagrams_longer_than_a_frame_arrive_in_ipv4_fragments_and_are_answered
                     if EthernetFrame::new_checked(&f[..]).unwrap().ethertype()
                         == EthernetProtocol::Arp
                     {
-                        let _ = robot_receive(&f, device_ip, &to_device);
+                        let _ = robot_receive(&f, device_ip, to_device);
                     } else if let Some(done) = reassembly.add(&f, device_ip) {
                         reply = Some(done);
                     }
@@ -630,7 +606,7 @@ fn robot_datagrams_longer_than_a_frame_arrive_in_ipv4_fragments_and_are_answered
             assert_eq!(data.application_data, [-f32::MAX; 18]);
             MockDriver::get().advance(Duration::from_micros(3000));
         }
-    }
+    });
     let s = engine.stats();
     assert_eq!((s.received, s.answered, s.dropped_decode), (3, 3, 0));
 }
