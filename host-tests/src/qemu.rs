@@ -219,14 +219,30 @@ impl Qemu {
 
     /// Every line logged so far.
     pub fn log(&self) -> Vec<String> {
-        self.all.lock().map(|l| l.clone()).unwrap_or_default()
+        self.since(0)
+    }
+
+    /// How many lines have been logged so far.
+    pub fn lines(&self) -> usize {
+        self.all.lock().map(|l| l.len()).unwrap_or(0)
+    }
+
+    /// The lines logged after the first `start` (only those are copied).
+    pub fn since(&self, start: usize) -> Vec<String> {
+        self.all
+            .lock()
+            .map(|l| l.get(start..).unwrap_or_default().to_vec())
+            .unwrap_or_default()
     }
 
     /// Waits until a logged line contains `needle`.
     pub fn wait_for(&mut self, needle: &str, timeout: Duration) -> Result<(), String> {
         let end = Instant::now() + timeout;
+        let mut seen = 0;
         loop {
-            if self.log().iter().any(|l| l.contains(needle)) {
+            let new = self.since(seen);
+            seen += new.len();
+            if new.iter().any(|l| l.contains(needle)) {
                 return Ok(());
             }
             if let Ok(Some(status)) = self.child.try_wait() {

@@ -245,17 +245,14 @@ pub struct Spread {
 }
 
 impl Spread {
-    pub fn of(mut v: Vec<u64>) -> Spread {
-        if v.is_empty() {
-            return Spread::default();
-        }
-        v.sort_unstable();
-        let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+    /// The same percentile rule as the simulator's latency figures.
+    pub fn of(v: Vec<u64>) -> Spread {
+        let l = crate::robot::report::Latency::of(v);
         Spread {
-            min: v[0],
-            median: at(0.5),
-            p99: at(0.99),
-            max: v[v.len() - 1],
+            min: l.min,
+            median: l.median,
+            p99: l.p99,
+            max: l.max,
         }
     }
 }

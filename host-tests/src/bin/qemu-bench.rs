@@ -123,7 +123,7 @@ fn drive(
     let mut opts = RobotOptions::new(gsi.to_path_buf(), to);
     opts.cycles = cycles;
     opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let start = board.log().len();
+    let start = board.lines();
     let result = run(&opts, device, &mut std::io::sink());
     stop.store(true, Ordering::Relaxed);
     let _ = flood.join();
@@ -133,8 +133,19 @@ fn drive(
     Ok(Driven {
         summary,
         flood_sent: flooded.load(Ordering::Relaxed),
-        lines: board.log().get(start..).unwrap_or_default().to_vec(),
+        lines: board.since(start),
     })
+}
+
+/// Stops QEMU and returns the whole log; an error if the firmware had
+/// already stopped (panicked or exited) `when`.
+fn finish(mut board: Qemu, when: &str) -> Result<Vec<String>, String> {
+    let exited = board.exited();
+    let log = board.stop();
+    match exited {
+        Some(status) => Err(format!("the firmware stopped {when} (QEMU {status})")),
+        None => Ok(log),
+    }
 }
 
 fn last_counters(log: &[String]) -> String {
@@ -209,7 +220,7 @@ fn bench(args: &Args) -> Result<bool, String> {
     let mut measure = |input: &Input| -> Result<Vec<Record>, String> {
         let mut got = Vec::new();
         for _ in 0..args.repeat {
-            let before = records(&board.log()).len();
+            let before = board.lines();
             next_id += 1;
             socket
                 .send_to(&input.with_id(next_id), to)
@@ -229,9 +240,8 @@ fn bench(args: &Args) -> Result<bool, String> {
             }
             let end = Instant::now() + Duration::from_secs(3);
             loop {
-                let all = records(&board.log());
-                if all.len() > before {
-                    got.push(all[before]);
+                if let Some(record) = records(&board.since(before)).first() {
+                    got.push(*record);
                     break;
                 }
                 if Instant::now() > end {
@@ -250,13 +260,7 @@ fn bench(args: &Args) -> Result<bool, String> {
     for input in &hostile {
         hostile_rows.push((input.clone(), measure(input)?));
     }
-    let exited = board.exited();
-    let log = board.stop();
-    if let Some(status) = exited {
-        return Err(format!(
-            "the firmware stopped during the bench (QEMU {status})"
-        ));
-    }
+    let log = finish(board, "during the bench")?;
     let counters = last_counters(&log);
 
     // 4. The flood, in real time: under -icount QEMU's user networking
@@ -287,13 +291,7 @@ fn bench(args: &Args) -> Result<bool, String> {
         args.cycles,
         args.flood_us,
     )?;
-    let flood_exited = flood_board.exited();
-    let flood_log = flood_board.stop();
-    if let Some(status) = flood_exited {
-        return Err(format!(
-            "the firmware stopped under the flood (QEMU {status})"
-        ));
-    }
+    let flood_log = finish(flood_board, "under the flood")?;
     let flood_counters = last_counters(&flood_log);
 
     // Figures.
