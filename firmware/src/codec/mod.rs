@@ -8,6 +8,7 @@
 
 pub mod decode;
 pub mod encode;
+mod exact;
 pub mod number;
 pub mod text;
 

@@ -240,8 +240,8 @@ fn plain_decimal(t: &[u8]) -> Option<f32> {
 /// ten up to 10^10 is one exact `f32` operation; at most 53 bits and 10^22
 /// is one exact `f64` operation, rounded once more to `f32` unless the
 /// `f64` result sits exactly on an `f32` midpoint (the only case where two
-/// roundings can differ from one). Everything else goes through `core`'s
-/// parser, which is exact but slower.
+/// roundings can differ from one). Everything else goes through
+/// [`super::exact`], exact with bounded work and no tables.
 pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
     let t = trim(text);
     if let Some(v) = plain_decimal(t) {
@@ -270,9 +270,12 @@ pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
         Some(v) if d.negative => -v,
         Some(v) => v,
         None => {
-            // `split_decimal` admitted ASCII only, so this cannot fail.
-            let s = core::str::from_utf8(t).map_err(|_| NumberError::Syntax)?;
-            s.parse().map_err(|_| NumberError::Syntax)?
+            let v = super::exact::parse_magnitude(t)?;
+            if d.negative {
+                -v
+            } else {
+                v
+            }
         }
     };
     if v.is_finite() {

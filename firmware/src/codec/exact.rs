@@ -1,0 +1,465 @@
+//! Exact decimal → `f32` for the texts the fast paths in
+//! [`super::number`] cannot take: more than 19 significant digits, a power
+//! of ten beyond 10^22, or a value on an `f32` midpoint.
+//!
+//! `core`'s parser does this too, but it brings a 10 KiB table of 128-bit
+//! powers of five and a 768-digit decimal buffer (14 KiB of flash in all,
+//! a quarter of the boards' budget), and its slow path grows with the
+//! length of the text. Here the work is bounded by a constant:
+//!
+//! 1. Only the first [`KEPT`] significant digits count; the rest only say
+//!    whether the value is a little above them (`sticky`). That is enough
+//!    because the exact decimal expansion of an `f32` midpoint (`m × 2^q`,
+//!    `m < 2^25`, `q ≥ -150`) has at most 113 significant digits: a value
+//!    cut after 120 digits compares with a midpoint exactly as the whole
+//!    value does, the cut-off digits only breaking a tie upwards.
+//! 2. An approximation in `f64` (a few `f64` ulps off, far below an `f32`
+//!    ulp) gives a candidate that is right or one `f32` step away.
+//! 3. The candidate is checked against the midpoints to its neighbours by
+//!    comparing `D × 10^e` with `m × 2^q` exactly, in a fixed 640-bit
+//!    integer (the largest operand needs about 430 bits), and moved at most
+//!    a step or two. Ties round to even.
+
+use super::number::NumberError;
+use core::cmp::Ordering;
+
+/// Significant digits taken exactly (see the module doc for why 120).
+const KEPT: usize = 120;
+/// 32-bit words in [`Big`]: 640 bits.
+const WORDS: usize = 20;
+/// Beyond these, a value is out of range (≥ 10^39 > `f32::MAX`) or rounds
+/// to zero (< 10^-46 < 2^-150, half the smallest subnormal).
+const MAX_MAGNITUDE: i32 = 38;
+const MIN_MAGNITUDE: i32 = -46;
+
+/// A decimal text cut to its first [`KEPT`] significant digits:
+/// `digits × 10^exponent`, plus `sticky` when non-zero digits were cut.
+struct Cut {
+    digits: [u8; KEPT],
+    kept: usize,
+    exponent: i32,
+    sticky: bool,
+}
+
+/// Splits a text already known to be a decimal (sign, digits, optional
+/// fraction, optional exponent) into its cut significant digits. One pass.
+fn cut(t: &[u8]) -> Cut {
+    let mut c = Cut {
+        digits: [0; KEPT],
+        kept: 0,
+        exponent: 0,
+        sticky: false,
+    };
+    let mut fraction = false;
+    let mut rest = t;
+    if let Some((b'+' | b'-', r)) = rest.split_first() {
+        rest = r;
+    }
+    while let Some((&b, r)) = rest.split_first() {
+        let d = b.wrapping_sub(b'0');
+        if d <= 9 {
+            rest = r;
+            if c.kept == 0 && d == 0 {
+                // A leading zero: only its place counts, after the point.
+                c.exponent -= i32::from(fraction);
+            } else if let Some(slot) = c.digits.get_mut(c.kept) {
+                *slot = d;
+                c.kept += 1;
+                c.exponent -= i32::from(fraction);
+            } else {
+                // Cut: before the point it still scales the value.
+                c.sticky |= d != 0;
+                c.exponent += i32::from(!fraction);
+            }
+        } else if b == b'.' {
+            rest = r;
+            fraction = true;
+        } else {
+            break;
+        }
+    }
+    if let Some((b'e' | b'E', r)) = rest.split_first() {
+        let (negative, digits) = match r.split_first() {
+            Some((b'-', d)) => (true, d),
+            Some((b'+', d)) => (false, d),
+            _ => (false, r),
+        };
+        // Clamped: anything this large is out of range anyway.
+        let e = digits
+            .iter()
+            .take_while(|b| b.is_ascii_digit())
+            .fold(0i32, |e, &b| (e * 10 + i32::from(b - b'0')).min(100_000));
+        c.exponent = c.exponent.saturating_add(if negative { -e } else { e });
+    }
+    c
+}
+
+/// A non-negative integer of at most [`WORDS`] 32-bit words, little end
+/// first. Operations that would not fit set `overflow` instead.
+#[derive(Clone)]
+struct Big {
+    words: [u32; WORDS],
+    len: usize,
+    overflow: bool,
+}
+
+impl Big {
+    fn from_u64(v: u64) -> Self {
+        let mut b = Big {
+            words: [0; WORDS],
+            len: 0,
+            overflow: false,
+        };
+        b.words[0] = v as u32;
+        b.words[1] = (v >> 32) as u32;
+        b.len = 2;
+        b.trim();
+        b
+    }
+
+    fn trim(&mut self) {
+        while self.len > 0 && self.words.get(self.len - 1) == Some(&0) {
+            self.len -= 1;
+        }
+    }
+
+    fn push(&mut self, w: u32) {
+        match self.words.get_mut(self.len) {
+            Some(slot) => {
+                *slot = w;
+                self.len += 1;
+            }
+            None => self.overflow = true,
+        }
+    }
+
+    /// `self = self × m + a`.
+    fn mul_add(&mut self, m: u32, a: u32) {
+        let mut carry = u64::from(a);
+        for w in self.words.iter_mut().take(self.len) {
+            let v = u64::from(*w) * u64::from(m) + carry;
+            *w = v as u32;
+            carry = v >> 32;
+        }
+        if carry != 0 {
+            self.push(carry as u32);
+        }
+    }
+
+    fn mul_pow5(&mut self, mut k: u32) {
+        const POW5: [u32; 14] = [
+            1,
+            5,
+            25,
+            125,
+            625,
+            3_125,
+            15_625,
+            78_125,
+            390_625,
+            1_953_125,
+            9_765_625,
+            48_828_125,
+            244_140_625,
+            1_220_703_125,
+        ];
+        while k > 0 {
+            let step = k.min(13);
+            self.mul_add(POW5.get(step as usize).copied().unwrap_or(1), 0);
+            k -= step;
+        }
+    }
+
+    fn shl(&mut self, bits: u32) {
+        if self.len == 0 {
+            return;
+        }
+        let (words, bits) = ((bits / 32) as usize, bits % 32);
+        let len = self.len + words + 1;
+        if len > WORDS {
+            self.overflow = true;
+            return;
+        }
+        let old = self.words;
+        let old_len = self.len;
+        let word = |j: Option<usize>| {
+            j.filter(|&j| j < old_len)
+                .and_then(|j| old.get(j))
+                .copied()
+                .unwrap_or(0)
+        };
+        for (i, slot) in self.words.iter_mut().enumerate().take(len) {
+            let hi = word(i.checked_sub(words));
+            let lo = word(i.checked_sub(words + 1));
+            *slot = if bits == 0 {
+                hi
+            } else {
+                hi << bits | lo >> (32 - bits)
+            };
+        }
+        self.len = len;
+        self.trim();
+    }
+
+    fn cmp(&self, other: &Big) -> Ordering {
+        self.len.cmp(&other.len).then_with(|| {
+            let a = self.words.iter().take(self.len).rev();
+            let b = other.words.iter().take(other.len).rev();
+            a.cmp(b)
+        })
+    }
+}
+
+/// `f32` bits as `mantissa × 2^exponent` (finite, non-negative values;
+/// the bits just past `f32::MAX` stand for 2^128).
+fn decompose(bits: u32) -> (u64, i32) {
+    let biased = (bits >> 23) as i32;
+    let fraction = u64::from(bits & 0x7f_ffff);
+    if biased == 0 {
+        (fraction, -149)
+    } else {
+        (fraction | 1 << 23, biased - 150)
+    }
+}
+
+/// The midpoint between two adjacent `f32` bit patterns, `m × 2^q`.
+fn midpoint(low: u32, high: u32) -> (u64, i32) {
+    let (ml, ql) = decompose(low);
+    let (mh, qh) = decompose(high);
+    let q = ql.min(qh);
+    ((ml << (ql - q)) + (mh << (qh - q)), q - 1)
+}
+
+/// Compares the cut decimal `D × 10^e` (`sticky`: a little more) with
+/// `m × 2^q`, exactly.
+fn compare(d: &Big, c: &Cut, (m, q): (u64, i32)) -> Result<Ordering, NumberError> {
+    // D × 5^e × 2^e against m × 2^q: the powers of five go to the side
+    // where they are positive, the powers of two likewise.
+    let mut left = d.clone();
+    let mut right = Big::from_u64(m);
+    if c.exponent >= 0 {
+        left.mul_pow5(c.exponent.unsigned_abs());
+    } else {
+        right.mul_pow5(c.exponent.unsigned_abs());
+    }
+    let shift = c.exponent - q;
+    if shift >= 0 {
+        left.shl(shift.unsigned_abs());
+    } else {
+        right.shl(shift.unsigned_abs());
+    }
+    if left.overflow || right.overflow {
+        // Cannot happen within the magnitude bounds (tested); refuse rather
+        // than guess.
+        return Err(NumberError::OutOfRange);
+    }
+    Ok(match left.cmp(&right) {
+        Ordering::Equal if c.sticky => Ordering::Greater,
+        o => o,
+    })
+}
+
+/// An `f64` close to `digits × 10^exponent` (a few `f64` ulps off), from
+/// the first 19 digits and exact powers of ten.
+fn approximate(c: &Cut) -> f64 {
+    const POW10: [f64; 23] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+        1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+    ];
+    let n = c.kept.min(19);
+    let m = c
+        .digits
+        .iter()
+        .take(n)
+        .fold(0u64, |m, &d| m * 10 + u64::from(d));
+    let mut v = m as f64;
+    // Within the magnitude bounds, |e| < 190: at most nine steps.
+    let mut e = c.exponent + (c.kept - n) as i32;
+    while e != 0 {
+        let step = e.unsigned_abs().min(22);
+        let p = POW10.get(step as usize).copied().unwrap_or(1.0);
+        if e > 0 {
+            v *= p;
+            e -= step as i32;
+        } else {
+            v /= p;
+            e += step as i32;
+        }
+    }
+    v
+}
+
+/// The correctly rounded magnitude of a decimal text (sign ignored; the
+/// caller has checked it is a decimal). Bounded work: one pass over the
+/// text, then at most a few hundred word operations.
+pub fn parse_magnitude(t: &[u8]) -> Result<f32, NumberError> {
+    let c = cut(t);
+    if c.kept == 0 {
+        return Ok(0.0);
+    }
+    // The value lies in [10^magnitude, 10^(magnitude + 1)).
+    let magnitude = c.exponent.saturating_add(c.kept as i32 - 1);
+    if magnitude > MAX_MAGNITUDE {
+        return Err(NumberError::OutOfRange);
+    }
+    if magnitude < MIN_MAGNITUDE {
+        return Ok(0.0);
+    }
+    let mut d = Big::from_u64(0);
+    for chunk in c.digits.get(..c.kept).unwrap_or(&[]).chunks(9) {
+        let (mut scale, mut value) = (1u32, 0u32);
+        for &digit in chunk {
+            scale *= 10;
+            value = value * 10 + u32::from(digit);
+        }
+        d.mul_add(scale, value);
+    }
+    const INFINITY: u32 = 0x7f80_0000;
+    let mut bits = (approximate(&c) as f32).to_bits().min(INFINITY - 1);
+    // The approximation is at most one step off; a few rounds settle it.
+    for _ in 0..4 {
+        let up = compare(&d, &c, midpoint(bits, bits + 1))?;
+        if up == Ordering::Greater || (up == Ordering::Equal && bits & 1 == 1) {
+            bits += 1;
+            if bits >= INFINITY {
+                return Err(NumberError::OutOfRange);
+            }
+            continue;
+        }
+        if bits > 0 {
+            let down = compare(&d, &c, midpoint(bits - 1, bits))?;
+            if down == Ordering::Less || (down == Ordering::Equal && bits & 1 == 1) {
+                bits -= 1;
+                continue;
+            }
+        }
+        break;
+    }
+    Ok(f32::from_bits(bits))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::format;
+    use std::string::String;
+
+    fn oracle(text: &str) -> Option<u32> {
+        text.parse::<f32>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .map(|v| v.abs().to_bits())
+    }
+
+    fn ours(text: &str) -> Option<u32> {
+        parse_magnitude(text.as_bytes()).ok().map(f32::to_bits)
+    }
+
+    #[test]
+    fn m5_exact_on_hard_cases() {
+        for text in [
+            "0",
+            "0.000",
+            "1",
+            "3.4028235e38",
+            "3.4028235677973366e38",  // just below MAX + ulp/2
+            "3.4028235677973367e38",  // just above: infinity
+            "340282356779733661637539395458142568448", // MAX + ulp/2 exactly: ties to inf
+            "1.4e-45",
+            "7.006492321624085354618647916449580656401309709382578858785341419448955413429303e-46", // 2^-150: ties to 0
+            "7.006492321624085354618647916449580656401309709382578858785341419448955413429304e-46",
+            "1.17549435e-38",
+            "16777217",               // 2^24 + 1: tie, to even
+            "16777219",               // tie, to even (up)
+            "16777217.000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000001",
+            "9999999999999999999999999999999999999999",
+            "0.1",
+            "123456789012345678901234567890e-10",
+            "1e-46",
+            "9.99e-47",
+            "1e38",
+            "1e39",
+        ] {
+            assert_eq!(ours(text), oracle(text), "{text}");
+        }
+    }
+
+    #[test]
+    fn m5_exact_on_random_long_texts() {
+        let mut x: u64 = 0x2545_f491_4f6c_dd1d;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for _ in 0..100_000 {
+            let r = next();
+            let digits = 1 + (r % 200) as usize;
+            let mut text = String::new();
+            for i in 0..digits {
+                if i == (r >> 16) as usize % (digits + 1) {
+                    text.push('.');
+                }
+                let d = next() % 10;
+                text.push((b'0' + d as u8) as char);
+            }
+            let e = (r >> 32) as i32 % 120 - 60;
+            text.push_str(&format!("e{e}"));
+            assert_eq!(ours(&text), oracle(&text), "{text}");
+        }
+    }
+
+    /// f32 midpoints written out exactly, and the texts a hair above
+    /// them, across the whole range.
+    #[test]
+    fn m5_exact_on_midpoints() {
+        let mut y: u32 = 7;
+        for _ in 0..3_000 {
+            y ^= y << 13;
+            y ^= y >> 17;
+            y ^= y << 5;
+            let bits = y & 0x7f7f_ffff;
+            let (m, q) = midpoint(bits, bits + 1);
+            let (digits, e) = exact_decimal(m, q);
+            for text in [
+                format!("{digits}e{e}"),
+                format!("{digits}1e{}", e - 1),
+                format!("{digits}0000001e{}", e - 7),
+            ] {
+                assert_eq!(ours(&text), oracle(&text), "{text}");
+            }
+        }
+    }
+
+    /// `m × 2^q` as decimal digits and a power of ten (test only).
+    fn exact_decimal(m: u64, q: i32) -> (String, i32) {
+        let mut digits: std::vec::Vec<u32> =
+            m.to_string().bytes().map(|b| u32::from(b - b'0')).collect();
+        let (factor, times) = if q >= 0 { (2, q) } else { (5, -q) };
+        for _ in 0..times {
+            let mut carry = 0;
+            for d in digits.iter_mut().rev() {
+                let v = *d * factor + carry;
+                *d = v % 10;
+                carry = v / 10;
+            }
+            while carry > 0 {
+                digits.insert(0, carry % 10);
+                carry /= 10;
+            }
+        }
+        let text = digits.iter().map(|d| char::from(b'0' + *d as u8)).collect();
+        (text, q.min(0))
+    }
+
+    #[test]
+    fn big_never_overflows_within_bounds() {
+        // The largest operands: 120 nines at both magnitude bounds.
+        for e in [MIN_MAGNITUDE - 1, MIN_MAGNITUDE, 0, MAX_MAGNITUDE] {
+            let text = format!("0.{}e{}", "9".repeat(KEPT + 30), e + 1);
+            let got = parse_magnitude(text.as_bytes());
+            assert_eq!(got.ok().map(f32::to_bits), oracle(&text), "{text}");
+        }
+    }
+}
