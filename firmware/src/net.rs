@@ -62,10 +62,13 @@ impl<Rx: MessageCodec, Tx: MessageCodec> Monitor<Rx, Tx> for () {}
 
 /// Buffers of the UDP cycle task, all sized by the generated layout:
 /// `RX` = `layout::MAX_RECEIVE_LEN`, `TX` = `layout::MAX_SEND_LEN`.
+///
+/// Only bytes, all zero: a `static` of it goes to `.bss` and costs no
+/// flash. (The sockets' packet metadata, whose empty value is not all
+/// zeros, lives in the cycle task itself: in a static beside the bytes it
+/// would pull the whole 25 KB into `.data`, i.e. into flash.)
 pub struct UdpBuffers<const RX: usize, const TX: usize> {
-    rx_meta: [PacketMetadata; QUEUE],
     rx: [[u8; RX]; QUEUE],
-    tx_meta: [PacketMetadata; QUEUE],
     tx: [[u8; TX]; QUEUE],
     datagram: [u8; RX],
     reply: [u8; TX],
@@ -95,9 +98,7 @@ impl<const RX: usize, const TX: usize> UdpBuffers<RX, TX> {
             );
         }
         UdpBuffers {
-            rx_meta: [PacketMetadata::EMPTY; QUEUE],
             rx: [[0; RX]; QUEUE],
-            tx_meta: [PacketMetadata::EMPTY; QUEUE],
             tx: [[0; TX]; QUEUE],
             datagram: [0; RX],
             reply: [0; TX],
@@ -138,18 +139,18 @@ where
     M: Monitor<Rx, Tx>,
 {
     let UdpBuffers {
-        rx_meta,
         rx,
-        tx_meta,
         tx,
         datagram,
         reply,
     } = buffers;
+    let mut rx_meta = [PacketMetadata::EMPTY; QUEUE];
+    let mut tx_meta = [PacketMetadata::EMPTY; QUEUE];
     let mut socket = UdpSocket::new(
         stack,
-        rx_meta,
+        &mut rx_meta,
         rx.as_flattened_mut(),
-        tx_meta,
+        &mut tx_meta,
         tx.as_flattened_mut(),
     );
     if socket.bind(port).is_err() {
