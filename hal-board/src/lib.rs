@@ -15,10 +15,32 @@
 #![cfg_attr(not(test), no_std)]
 
 pub mod lan9118;
+pub mod mac;
 
 #[cfg(all(feature = "mps2-an500", target_os = "none"))]
 pub mod mps2_an500;
 
+#[cfg(all(feature = "stm32", target_os = "none"))]
+pub mod nucleo;
+
+#[cfg(all(
+    target_os = "none",
+    any(
+        all(feature = "mps2-an500", feature = "stm32"),
+        all(feature = "nucleo-f767zi", feature = "nucleo-h743zi"),
+    )
+))]
+compile_error!("choose one board feature: mps2-an500, nucleo-f767zi or nucleo-h743zi");
+
+#[cfg(all(
+    feature = "stm32",
+    not(any(feature = "nucleo-f767zi", feature = "nucleo-h743zi"))
+))]
+compile_error!("`stm32` is not a board: choose nucleo-f767zi or nucleo-h743zi");
+
 /// The board this firmware is built for.
 #[cfg(all(feature = "mps2-an500", target_os = "none"))]
 pub use mps2_an500 as board;
+/// The board this firmware is built for.
+#[cfg(all(feature = "stm32", target_os = "none"))]
+pub use nucleo as board;
