@@ -242,5 +242,22 @@ fn mcu_link_args(workspace: &Path, manifest: &Path) {
         println!("cargo:rustc-link-arg-bins=--nmagic");
         println!("cargo:rustc-link-arg-bins=-Trri-board.x");
         println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+        flip_link_notice();
+    }
+}
+
+/// `.cargo/flip-link-or-lld` links through flip-link when it is installed
+/// (stack overflow faults instead of corrupting statics) and through plain
+/// rust-lld otherwise: say which, so a build without the protection is
+/// never silent.
+fn flip_link_notice() {
+    println!("cargo:rerun-if-env-changed=PATH");
+    let found = std::env::var_os("PATH").is_some_and(|paths| {
+        std::env::split_paths(&paths).any(|dir| dir.join("flip-link").is_file())
+    });
+    if !found {
+        println!(
+            "cargo::warning=flip-link is not installed: linking without stack overflow protection (install it with `cargo install flip-link`)"
+        );
     }
 }
