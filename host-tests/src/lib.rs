@@ -11,6 +11,7 @@ pub mod layouts {
     include!(concat!(env!("OUT_DIR"), "/layouts.rs"));
 }
 
+pub mod boards;
 pub mod qemu;
 pub mod qemu_bench;
 pub mod robot;

@@ -1,0 +1,88 @@
+//! `cargo boards [-- --board f767|h743]`: builds each STM32 board once
+//! through its alias (`cargo build-f767`, `cargo build-h743`) from the
+//! manual's configuration, checks its ELF against the board's memory map,
+//! prints its sections (as `size -A` does) and fails when flash or static
+//! RAM is over the board's budget. CI runs it; no board is needed.
+
+use clap::{Parser, ValueEnum};
+use host_tests::boards::{self, Board, BOARDS};
+use std::process::ExitCode;
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum Which {
+    F767,
+    H743,
+    All,
+}
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "cargo boards",
+    about = "Build the STM32 boards' firmware and check it against their memory maps and budgets"
+)]
+struct Args {
+    /// Which board to build.
+    #[arg(long, value_enum, default_value_t = Which::All)]
+    board: Which,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let chosen: Vec<&Board> = BOARDS
+        .iter()
+        .filter(|b| match args.board {
+            Which::F767 => b.alias == "build-f767",
+            Which::H743 => b.alias == "build-h743",
+            Which::All => true,
+        })
+        .collect();
+    let mut failed = false;
+    let mut table = Vec::new();
+    for board in chosen {
+        let result = boards::build(board).and_then(|elf| {
+            // Printed first, so an image over budget shows where the bytes
+            // went.
+            print_sections(board, &elf, &host_tests::qemu::sections(&elf)?);
+            boards::check(board, &elf)
+        });
+        match result {
+            Ok(u) => table.push((board, u)),
+            Err(e) => {
+                eprintln!("error: {e}");
+                failed = true;
+            }
+        }
+    }
+    println!();
+    println!("| board | flash | budget | static RAM | budget |");
+    println!("|---|---:|---:|---:|---:|");
+    for (b, u) in &table {
+        println!(
+            "| {} | {} B ({:.1} KiB) | {:.1} KiB | {} B ({:.1} KiB) | {:.1} KiB |",
+            b.name,
+            u.flash,
+            kib(u.flash),
+            kib(b.flash_budget),
+            u.ram,
+            kib(u.ram),
+            kib(b.ram_budget)
+        );
+    }
+    if failed {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+fn kib(bytes: u64) -> f64 {
+    bytes as f64 / 1024.0
+}
+
+fn print_sections(board: &Board, elf: &std::path::Path, sections: &[(String, u64, u64)]) {
+    println!("\n{} ({}):", board.name, elf.display());
+    println!("{:<16} {:>8} {:>12}", "section", "size", "addr");
+    for (name, addr, size) in sections {
+        println!("{name:<16} {size:>8} {addr:>#12x}");
+    }
+}

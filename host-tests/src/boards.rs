@@ -1,0 +1,176 @@
+//! The STM32 boards' builds as CI checks them: each board built once
+//! through its public alias (`cargo build-f767`, `cargo build-h743`), its
+//! ELF checked against the board's memory map, and its flash and static RAM
+//! against the budgets.
+
+use crate::qemu::{check_memory_map, regions, sections, PROFILE, TARGET};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// One STM32 board: how it is built and what it may use.
+#[derive(Clone, Copy, Debug)]
+pub struct Board {
+    /// The name users know (and the ELF's name under `target/boards/`).
+    pub name: &'static str,
+    /// The cargo alias that builds it.
+    pub alias: &'static str,
+    /// Its linker memory map, from the workspace root.
+    pub memory_map: &'static str,
+    /// Flash budget in bytes: code, read-only data and `.data`'s image.
+    pub flash_budget: u64,
+    /// Static RAM budget in bytes: `.data`, `.bss`, `.uninit` (the stack
+    /// takes the rest of RAM).
+    pub ram_budget: u64,
+}
+
+const KIB: u64 = 1024;
+
+/// The boards, with the budgets of the board issue: the F767 within 96 KiB
+/// of flash and 64 KiB of static RAM with the manual's configuration and
+/// defmt on; the H743 at most 5 % above.
+pub const BOARDS: [Board; 2] = [
+    Board {
+        name: "nucleo-f767zi",
+        alias: "build-f767",
+        memory_map: "memory.x",
+        flash_budget: 96 * KIB,
+        ram_budget: 64 * KIB,
+    },
+    Board {
+        name: "nucleo-h743zi",
+        alias: "build-h743",
+        memory_map: "hal-board/memory/nucleo-h743zi.x",
+        flash_budget: 96 * KIB * 105 / 100,
+        ram_budget: 64 * KIB * 105 / 100,
+    },
+];
+
+/// Builds `board` with its alias from the manual's configuration (the
+/// firmware's default GSI folder: `RRI_GSI_DIR` and `RRI_DEVICE` are
+/// cleared) and copies the ELF to `target/boards/<name>.elf`.
+pub fn build(board: &Board) -> Result<PathBuf, String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let status = Command::new(&cargo)
+        .current_dir(crate::workspace())
+        .env_remove("RRI_GSI_DIR")
+        .env_remove("RRI_DEVICE")
+        .arg(board.alias)
+        .status()
+        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
+    if !status.success() {
+        return Err(format!("`cargo {}` failed ({status})", board.alias));
+    }
+    let built = crate::qemu::target_dir()
+        .join(TARGET)
+        .join(PROFILE)
+        .join("rri-sensor");
+    let dir = crate::qemu::target_dir().join("boards");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let elf = dir.join(format!("{}.elf", board.name));
+    std::fs::copy(&built, &elf)
+        .map_err(|e| format!("{} → {}: {e}", built.display(), elf.display()))?;
+    Ok(elf)
+}
+
+/// What an image takes, in bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Usage {
+    pub flash: u64,
+    pub ram: u64,
+}
+
+/// Flash: every allocated section in the map's first region (FLASH) plus
+/// `.data`, whose initial values are stored there too. RAM: every section
+/// in any other region.
+pub fn usage(sections: &[(String, u64, u64)], regions: &[(String, u64, u64)]) -> Usage {
+    let Some((_, flash_origin, flash_len)) = regions.first() else {
+        return Usage::default();
+    };
+    let in_flash = |addr: u64| addr >= *flash_origin && addr < flash_origin + flash_len;
+    let mut u = Usage::default();
+    for (name, addr, size) in sections {
+        if in_flash(*addr) {
+            u.flash += size;
+        } else {
+            u.ram += size;
+            if name == ".data" {
+                u.flash += size;
+            }
+        }
+    }
+    u
+}
+
+/// Checks a built ELF: linked for the board's memory map, within budget.
+/// Returns its usage, or every failure.
+pub fn check(board: &Board, elf: &Path) -> Result<Usage, String> {
+    let map_path = crate::workspace().join(board.memory_map);
+    let map =
+        std::fs::read_to_string(&map_path).map_err(|e| format!("{}: {e}", map_path.display()))?;
+    let regions = regions(&map).map_err(|e| format!("{}: {e}", map_path.display()))?;
+    let sections = sections(elf)?;
+    check_memory_map(&sections, &regions).map_err(|e| format!("{}: {e}", board.name))?;
+    let u = usage(&sections, &regions);
+    let mut over = Vec::new();
+    if u.flash > board.flash_budget {
+        over.push(format!(
+            "flash {} B > budget {} B",
+            u.flash, board.flash_budget
+        ));
+    }
+    if u.ram > board.ram_budget {
+        over.push(format!(
+            "static RAM {} B > budget {} B",
+            u.ram, board.ram_budget
+        ));
+    }
+    if over.is_empty() {
+        Ok(u)
+    } else {
+        Err(format!("{}: {}", board.name, over.join(", ")))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn f767_map() -> Vec<(String, u64, u64)> {
+        regions(&std::fs::read_to_string(crate::workspace().join("memory.x")).unwrap()).unwrap()
+    }
+
+    #[test]
+    fn data_counts_in_flash_and_ram() {
+        let sections = [
+            (".vector_table".to_string(), 0x0800_0000, 0x1f8),
+            (".text".to_string(), 0x0800_01f8, 0x1000),
+            (".rodata".to_string(), 0x0800_11f8, 0x200),
+            (".data".to_string(), 0x2007_0000, 0x100),
+            (".bss".to_string(), 0x2007_0100, 0x800),
+            (".uninit".to_string(), 0x2007_0900, 0x400),
+        ];
+        assert_eq!(
+            usage(&sections, &f767_map()),
+            Usage {
+                flash: 0x1f8 + 0x1000 + 0x200 + 0x100,
+                ram: 0x100 + 0x800 + 0x400
+            }
+        );
+    }
+
+    #[test]
+    fn the_h743_map_keeps_ram_in_axi_sram() {
+        let map = std::fs::read_to_string(crate::workspace().join(BOARDS[1].memory_map)).unwrap();
+        let r = regions(&map).unwrap();
+        assert_eq!(r[0], ("FLASH".to_string(), 0x0800_0000, 2048 * KIB));
+        // The Ethernet DMA cannot reach the DTCM at 0x2000_0000.
+        assert_eq!(r[1], ("RAM".to_string(), 0x2400_0000, 512 * KIB));
+        // An image linked with the F767's map (RAM from 0x2000_0000) is
+        // refused.
+        let f767 = [
+            (".vector_table".to_string(), 0x0800_0000, 0x1f8),
+            (".bss".to_string(), 0x2000_0000, 0x100),
+        ];
+        assert!(check_memory_map(&f767, &r).is_err());
+    }
+}
