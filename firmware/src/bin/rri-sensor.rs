@@ -235,7 +235,7 @@ async fn sampler(mut source: board::Sampler, mut writer: SampleWriter<'static, 1
 }
 
 /// 10 Hz: the watchdog (fed only while the cycle turns), the LEDs (S2 state
-/// on LED 0; LED 1 toggles with answered cycles) and the log.
+/// on LED 0; LED 1 toggles with answered cycles, on for CLOSED) and the log.
 #[embassy_executor::task]
 async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Watchdog) -> ! {
     watchdog.start(WATCHDOG_MS);
@@ -254,7 +254,12 @@ async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Watchdog) -> !
             watchdog.feed();
         }
         leds.set(0, state_led(now.state, tick));
-        leds.set(1, now.stats.answered % 2 == 1);
+        // LED 1: toggles with every answered cycle (a steady glow while the
+        // robot streams), on for CLOSED.
+        leds.set(
+            1,
+            now.state == SensorState::Closed || now.stats.answered % 2 == 1,
+        );
         if now.state != last.state || now.error != last.error {
             match now.error {
                 Some(e) => defmt::warn!("state {=str} {=u32}", now.state.name(), e.code()),
