@@ -6,8 +6,10 @@
 //! (protocol, codec, cycle engine, the firmware's tasks) lives in
 //! `rri-firmware` and never sees a register.
 //!
-//! Each board is one module behind one cargo feature and exports the same
-//! names (see [`board`]): `init()`, `Board`, `Net`, `Leds`, `Sampler`,
+//! Boards: `mps2-an500` (QEMU, [`lan9118`] over MMIO), `nucleo-f767zi` and
+//! `nucleo-h743zi` (embassy-stm32; one shared `nucleo` module, one chip file
+//! each). Each board is one module behind one cargo feature and exports the
+//! same names (see [`board`]): `init()`, `Board`, `Net`, `Leds`, `Sampler`,
 //! `Watchdog`, `start_urgent_executor()`, `cycle_counter()`, `exit()`.
 //! Chip-only dependencies are gated to `target_os = "none"`, so the host
 //! build (`cargo test`) never compiles them; the LAN9118 driver is plain
