@@ -3,7 +3,7 @@
 //! ELF checked against the board's memory map, and its flash and static RAM
 //! against the budgets.
 
-use crate::qemu::{check_memory_map, regions, sections, PROFILE, TARGET};
+use crate::qemu::{check_memory_map, regions, sections};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -60,16 +60,7 @@ pub fn build(board: &Board) -> Result<PathBuf, String> {
     if !status.success() {
         return Err(format!("`cargo {}` failed ({status})", board.alias));
     }
-    let built = crate::qemu::target_dir()
-        .join(TARGET)
-        .join(PROFILE)
-        .join("rri-sensor");
-    let dir = crate::qemu::target_dir().join("boards");
-    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let elf = dir.join(format!("{}.elf", board.name));
-    std::fs::copy(&built, &elf)
-        .map_err(|e| format!("{} → {}: {e}", built.display(), elf.display()))?;
-    Ok(elf)
+    crate::qemu::keep_image("boards", board.name)
 }
 
 /// What an image takes, in bytes.

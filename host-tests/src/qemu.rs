@@ -95,8 +95,14 @@ pub fn build_firmware(extra: &[&str], gsi: Option<&Path>, name: &str) -> Result<
     if !status.success() {
         return Err(format!("the firmware build failed ({status})"));
     }
+    keep_image("qemu", name)
+}
+
+/// Copies the firmware image cargo just built to `target/<dir>/<name>.elf`,
+/// so the next build (other features, another board) does not replace it.
+pub fn keep_image(dir: &str, name: &str) -> Result<PathBuf, String> {
     let built = target_dir().join(TARGET).join(PROFILE).join("rri-sensor");
-    let dir = target_dir().join("qemu");
+    let dir = target_dir().join(dir);
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let elf = dir.join(format!("{name}.elf"));
     std::fs::copy(&built, &elf)
