@@ -295,6 +295,50 @@ fn peer_lock_on_first_valid_message_and_foreign_sources_dropped() {
     );
 }
 
+/// Defect 2 of the hostile-world issue (S4): a datagram from port 0 (or a
+/// broadcast, multicast, reserved or `0.x` address) was admitted as the
+/// controller on a new port. Never admitted, counted, no reply; the
+/// controller keeps its Id sequence.
+#[test]
+fn invalid_sources_are_never_admitted() {
+    let mut rig = Rig::new(config());
+    let spoofed = [
+        Endpoint::new(ROBOT.ip, 0),
+        Endpoint::new([255, 255, 255, 255], 6510),
+        Endpoint::new([224, 0, 0, 1], 6510),
+        Endpoint::new([239, 255, 255, 250], 1900),
+        Endpoint::new([240, 0, 0, 1], 6510),
+        Endpoint::new([0, 0, 0, 0], 6510),
+        Endpoint::new([0, 1, 2, 3], 6510),
+    ];
+    // Before any peer: none of them locks in.
+    for (i, from) in spoofed.iter().enumerate() {
+        assert_eq!(
+            rig.send(*from, i as u32 + 1, i as u64),
+            Outcome::Dropped(DropReason::InvalidSource),
+            "{from:?}"
+        );
+    }
+    assert_eq!(rig.engine.peer(), None);
+    rig.send(ROBOT, 1, 10);
+    // With a peer: port 0 from the controller's own address is no port
+    // takeover, and the next Id is not a gap.
+    for (i, from) in spoofed.iter().enumerate() {
+        assert_eq!(
+            rig.send(*from, 100 + i as u32, 11 + i as u64),
+            Outcome::Dropped(DropReason::InvalidSource)
+        );
+    }
+    assert!(matches!(rig.send(ROBOT, 2, 30), Outcome::Reply { to, .. } if to == ROBOT));
+    let s = rig.engine.stats();
+    assert_eq!(s.dropped_invalid_source, 2 * spoofed.len() as u32);
+    assert_eq!(
+        (s.peer_locked, s.port_takeovers, s.lost, s.answered),
+        (1, 0, 0, 2)
+    );
+    assert_eq!(rig.app.calls, 2);
+}
+
 #[test]
 fn peer_new_port_takes_over_at_once() {
     let mut rig = Rig::new(config());

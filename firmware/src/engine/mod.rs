@@ -182,6 +182,17 @@ where
         bump(&mut self.stats.framing_errors);
     }
 
+    /// The transport could not send a reply (counted; the cycle goes on).
+    pub fn send_failed(&mut self) {
+        bump(&mut self.stats.send_errors);
+    }
+
+    /// The transport closed a stalled TCP connection (see
+    /// [`crate::tcp::StallGuard`]); it then calls [`Engine::peer_closed`].
+    pub fn stalled(&mut self) {
+        bump(&mut self.stats.stalled_closed);
+    }
+
     /// A datagram longer than the receive buffer arrived (the transport
     /// could not even read it whole): counted as a `TooLong` rejection.
     pub fn datagram_too_long(&mut self) {
@@ -228,6 +239,9 @@ where
         received: Instant,
         out: &mut [u8],
     ) -> Result<usize, DropReason> {
+        if !from.is_valid_source() {
+            return Err(DropReason::InvalidSource);
+        }
         if self.peers.admit(from, received) == Admit::Foreign {
             return Err(DropReason::ForeignSource);
         }

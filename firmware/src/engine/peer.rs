@@ -15,6 +15,15 @@ impl Endpoint {
     pub const fn new(ip: [u8; 4], port: u16) -> Self {
         Endpoint { ip, port }
     }
+
+    /// Whether a datagram from here can come from a controller at all: a
+    /// unicast address (not `0.0.0.0/8`, multicast `224.0.0.0/4`, reserved
+    /// `240.0.0.0/4` or the broadcast address) and a port other than 0.
+    /// Anything else is spoofed or broken; answering it would send
+    /// replies nowhere or to everyone (S4).
+    pub const fn is_valid_source(&self) -> bool {
+        self.port != 0 && self.ip[0] != 0 && self.ip[0] < 224
+    }
 }
 
 /// A pinned controller (`RRI_CONTROLLER=ip[:port]`).

@@ -62,6 +62,10 @@ pub enum DropReason {
     /// Not from the controller (or a pinned controller's address), and the
     /// peer has not been silent for `TimeOut`.
     ForeignSource,
+    /// A source no controller can have: port 0, or a broadcast,
+    /// multicast, reserved or `0.x.x.x` address (spoofed or broken).
+    /// Never admitted, never answered.
+    InvalidSource,
     /// Could not be decoded (the kind is counted separately).
     Decode(DecodeErrorKind),
     /// The reply did not fit the buffer (a wrong buffer size; never with
@@ -84,6 +88,8 @@ pub struct Stats {
     /// Periodic sends of one-way streams.
     pub periodic_sent: u32,
     pub dropped_foreign: u32,
+    /// From port 0 or a non-unicast address ([`DropReason::InvalidSource`]).
+    pub dropped_invalid_source: u32,
     pub dropped_decode: u32,
     pub dropped_encode: u32,
     pub dropped_no_reply: u32,
@@ -121,6 +127,13 @@ pub struct Stats {
     pub framing_errors: u32,
     /// TCP peers that closed the connection.
     pub closed: u32,
+    /// Replies the transport failed to send (a full queue, no route, a
+    /// connection reset while writing): counted, never fatal.
+    pub send_errors: u32,
+    /// TCP connections the device closed because they stalled: an
+    /// incomplete message held longer than `TimeOut`, or silence for
+    /// `TimeOut` while another connection waited.
+    pub stalled_closed: u32,
     pub latency: Histogram,
 }
 
@@ -138,6 +151,7 @@ impl Stats {
         answered: 0,
         periodic_sent: 0,
         dropped_foreign: 0,
+        dropped_invalid_source: 0,
         dropped_decode: 0,
         dropped_encode: 0,
         dropped_no_reply: 0,
@@ -162,6 +176,8 @@ impl Stats {
         non_finite: 0,
         framing_errors: 0,
         closed: 0,
+        send_errors: 0,
+        stalled_closed: 0,
         latency: Histogram::EMPTY,
     };
 }
@@ -178,6 +194,7 @@ impl Stats {
     pub(crate) fn count_drop(&mut self, reason: DropReason) {
         match reason {
             DropReason::ForeignSource => bump(&mut self.dropped_foreign),
+            DropReason::InvalidSource => bump(&mut self.dropped_invalid_source),
             DropReason::Decode(kind) => {
                 bump(&mut self.dropped_decode);
                 if let Some(c) = self.decode_errors.get_mut(kind.index()) {

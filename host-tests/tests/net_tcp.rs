@@ -1,0 +1,274 @@
+//! M10 over real TCP connections: the boards' `tcp_cycle` on one
+//! embassy-net stack, robots on a second stack, one in-memory Ethernet
+//! (`memnet`), embassy-time's mock clock: deterministic. Framing, a
+//! message longer than the buffer, and the hostile-world defects: a peer
+//! that resets while replies are written, a stalled connection, a
+//! half-open one, and a controller that merely pauses.
+
+mod memnet;
+
+use embassy_net::tcp::TcpSocket;
+use embassy_net::Stack;
+use embassy_time::{Duration, Timer};
+use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMessage};
+use memnet::with_tcp_device;
+use rri_firmware::codec::decode;
+use rri_firmware::engine::{Config, Engine, SensorState};
+use rri_firmware::tcp::Framer;
+use smoltcp::wire::Ipv4Address;
+use std::cell::Cell;
+
+type DeviceEngine = Engine<RobDataMessage, SensDataMessage>;
+
+/// A short `TimeOut` (the stall rule's clock) so the tests stay quick.
+const TIMEOUT_MS: u32 = 100;
+
+fn config() -> Config {
+    Config {
+        timeout_ms: TIMEOUT_MS,
+        ..layout::ENGINE_CONFIG
+    }
+}
+
+fn message(id: u32) -> String {
+    format!(r#"<RobData Id="{id}" Ts="1.0"><Ts_act>1.0</Ts_act></RobData>"#)
+}
+
+/// One robot connection with its reply framer.
+struct Robot<'a> {
+    socket: TcpSocket<'a>,
+    framer: Framer<4096>,
+}
+
+impl<'a> Robot<'a> {
+    async fn connect(stack: Stack<'a>, rx: &'a mut [u8], tx: &'a mut [u8]) -> Robot<'a> {
+        let mut socket = TcpSocket::new(stack, rx, tx);
+        let device = Ipv4Address::from(layout::NETWORK_IPV4.expect("IPv4"));
+        socket
+            .connect((device, layout::CHANNEL_PORT))
+            .await
+            .expect("connects");
+        Robot {
+            socket,
+            framer: Framer::new(),
+        }
+    }
+
+    /// Writes all of `bytes`; `false` once the connection is gone.
+    async fn write(&mut self, mut bytes: &[u8]) -> bool {
+        while !bytes.is_empty() {
+            match self.socket.write(bytes).await {
+                Ok(0) | Err(_) => return false,
+                Ok(n) => bytes = &bytes[n..],
+            }
+        }
+        true
+    }
+
+    /// The next reply's Id (M8), `None` once the device has closed.
+    async fn reply(&mut self) -> Option<u32> {
+        let mut chunk = [0u8; 1024];
+        loop {
+            let mut reply = None;
+            let n = match self.socket.read(&mut chunk).await {
+                Ok(0) | Err(_) => return None,
+                Ok(n) => n,
+            };
+            self.framer
+                .push(&chunk[..n], |m| reply = Some(m.to_vec()))
+                .expect("replies fit");
+            if let Some(r) = reply {
+                let mut data = layout::SensorData::default();
+                return Some(
+                    decode::<SensDataMessage>(&r, &mut data)
+                        .expect("decodes")
+                        .id,
+                );
+            }
+        }
+    }
+
+    /// Waits until the device closes (reads whatever still comes).
+    async fn closed(&mut self) {
+        let mut chunk = [0u8; 1024];
+        while let Ok(n) = self.socket.read(&mut chunk).await {
+            if n == 0 {
+                break;
+            }
+        }
+    }
+}
+
+/// M10: 200 messages, each written in two pieces, all answered with their
+/// Id; then a message longer than the receive buffer, a framing error
+/// that closes the connection (S2: CLOSED).
+#[test]
+fn frames_answers_and_closes_on_a_framing_error_m10() {
+    let mut engine = DeviceEngine::new(layout::ENGINE_CONFIG);
+    let (answered, closed_by_device) = (&Cell::new(0u32), &Cell::new(false));
+    let done = with_tcp_device(
+        &mut engine,
+        &mut (),
+        move |stack| async move {
+            let (mut rx, mut tx) = ([0u8; 4096], [0u8; 4096]);
+            let mut robot = Robot::connect(stack, &mut rx, &mut tx).await;
+            for id in 1..=200u32 {
+                let msg = message(id);
+                let (first, second) = msg.as_bytes().split_at(msg.len() / 2);
+                assert!(robot.write(first).await && robot.write(second).await);
+                assert_eq!(robot.reply().await, Some(id), "M8 over TCP");
+                answered.set(answered.get() + 1);
+            }
+            let big = format!(
+                "<RobData Id=\"999\">{}</RobData>",
+                " ".repeat(layout::MAX_RECEIVE_LEN + 10)
+            );
+            let _ = robot.write(big.as_bytes()).await;
+            robot.closed().await;
+            closed_by_device.set(true);
+        },
+        200_000,
+    );
+    assert!(done, "the robot finished ({} answered)", answered.get());
+    assert_eq!(answered.get(), 200);
+    assert!(closed_by_device.get());
+    let s = engine.stats();
+    assert_eq!((s.answered, s.framing_errors, s.closed), (200, 1, 1));
+    assert_eq!(engine.state(), SensorState::Closed);
+}
+
+/// Defect 3 of the hostile-world issue: a controller that resets its
+/// connection while replies are still being written ends that connection
+/// only; the next connection is answered.
+#[test]
+fn a_reset_while_replies_are_written_ends_only_that_connection() {
+    let mut engine = DeviceEngine::new(config());
+    let second = &Cell::new(None);
+    let done = with_tcp_device(
+        &mut engine,
+        &mut (),
+        move |stack| async move {
+            let (mut rx, mut tx) = ([0u8; 4096], [0u8; 4096]);
+            {
+                let mut robot = Robot::connect(stack, &mut rx, &mut tx).await;
+                let burst: String = (1..=40).map(message).collect();
+                assert!(robot.write(burst.as_bytes()).await);
+                Timer::after(Duration::from_micros(300)).await;
+                robot.socket.abort();
+                let _ = robot.socket.flush().await;
+            }
+            Timer::after(Duration::from_millis(5)).await;
+            let mut robot = Robot::connect(stack, &mut rx, &mut tx).await;
+            assert!(robot.write(message(41).as_bytes()).await);
+            second.set(robot.reply().await);
+        },
+        100_000,
+    );
+    assert!(done, "the second connection was served");
+    assert_eq!(second.get(), Some(41));
+    let s = engine.stats();
+    assert!(s.answered >= 1, "{s:?}");
+    assert_eq!(s.closed, 1, "the reset connection was closed once");
+}
+
+/// Defect 4 (M10): half a message and then nothing no longer locks the
+/// device out: the connection is closed once it has held the incomplete
+/// message for `TimeOut`, and the controller's next connection, waiting
+/// meanwhile, is answered within one `TimeOut`.
+#[test]
+fn an_incomplete_message_is_closed_after_timeout_and_the_waiting_controller_served_m10() {
+    let mut engine = DeviceEngine::new(config());
+    let (served_after, stalled_closed) = (&Cell::new(None), &Cell::new(false));
+    let done = with_tcp_device(
+        &mut engine,
+        &mut (),
+        move |stack| async move {
+            let (mut rx1, mut tx1) = ([0u8; 4096], [0u8; 4096]);
+            let (mut rx2, mut tx2) = ([0u8; 4096], [0u8; 4096]);
+            let mut stalled = Robot::connect(stack, &mut rx1, &mut tx1).await;
+            let msg = message(1);
+            assert!(stalled.write(&msg.as_bytes()[..msg.len() / 2]).await);
+            let start = embassy_time::Instant::now();
+            let mut robot = Robot::connect(stack, &mut rx2, &mut tx2).await;
+            assert!(robot.write(message(7).as_bytes()).await);
+            assert_eq!(robot.reply().await, Some(7));
+            served_after.set(Some(start.elapsed().as_millis()));
+            stalled.closed().await;
+            stalled_closed.set(true);
+        },
+        100_000,
+    );
+    assert!(done);
+    assert!(stalled_closed.get(), "the stalled connection was closed");
+    let after = served_after.get().expect("served");
+    assert!(
+        (u64::from(TIMEOUT_MS)..=u64::from(TIMEOUT_MS) + 10).contains(&after),
+        "served after {after} ms"
+    );
+    let s = engine.stats();
+    assert_eq!((s.stalled_closed, s.answered), (1, 1));
+}
+
+/// Defect 4 (M10): a half-open connection (the controller restarted)
+/// whose peer sent whole messages and then nothing is closed once it has
+/// been silent for `TimeOut` while the controller's new connection waits.
+#[test]
+fn a_silent_connection_gives_way_to_a_waiting_one_after_timeout_m10() {
+    let mut engine = DeviceEngine::new(config());
+    let served_after = &Cell::new(None);
+    let done = with_tcp_device(
+        &mut engine,
+        &mut (),
+        move |stack| async move {
+            let (mut rx1, mut tx1) = ([0u8; 4096], [0u8; 4096]);
+            let (mut rx2, mut tx2) = ([0u8; 4096], [0u8; 4096]);
+            let mut old = Robot::connect(stack, &mut rx1, &mut tx1).await;
+            assert!(old.write(message(1).as_bytes()).await);
+            assert_eq!(old.reply().await, Some(1));
+            let start = embassy_time::Instant::now();
+            let mut robot = Robot::connect(stack, &mut rx2, &mut tx2).await;
+            assert!(robot.write(message(2).as_bytes()).await);
+            assert_eq!(robot.reply().await, Some(2));
+            served_after.set(Some(start.elapsed().as_millis()));
+        },
+        100_000,
+    );
+    assert!(done);
+    let after = served_after.get().expect("served");
+    assert!(
+        after <= u64::from(TIMEOUT_MS) + 10,
+        "served after {after} ms"
+    );
+    let s = engine.stats();
+    assert_eq!((s.stalled_closed, s.answered), (1, 2));
+}
+
+/// M10: a controller that pauses its stream (`SiSetCyclic` rate 0) with
+/// nobody else waiting keeps its connection, however long the pause.
+#[test]
+fn a_pause_with_nobody_waiting_keeps_the_connection_m10() {
+    let mut engine = DeviceEngine::new(Config {
+        dry_run: true,
+        ..config()
+    });
+    let answered = &Cell::new(0);
+    let done = with_tcp_device(
+        &mut engine,
+        &mut (),
+        move |stack| async move {
+            let (mut rx, mut tx) = ([0u8; 4096], [0u8; 4096]);
+            let mut robot = Robot::connect(stack, &mut rx, &mut tx).await;
+            for id in 1..=3 {
+                assert!(robot.write(message(id).as_bytes()).await);
+                assert_eq!(robot.reply().await, Some(id));
+                answered.set(answered.get() + 1);
+                Timer::after(Duration::from_millis(5 * u64::from(TIMEOUT_MS))).await;
+            }
+        },
+        100_000,
+    );
+    assert!(done);
+    assert_eq!(answered.get(), 3);
+    let s = engine.stats();
+    assert_eq!((s.stalled_closed, s.closed, s.answered), (0, 0, 3));
+}
