@@ -6,9 +6,9 @@
 
 use crate::engine::{Application, Clock, Endpoint, Engine, Instant, Outcome};
 use crate::schema::MessageCodec;
-use crate::tcp::Framer;
+use crate::tcp::{Framer, StallGuard};
 use embassy_futures::select::{select, Either};
-use embassy_net::tcp::TcpSocket;
+use embassy_net::tcp::{State as TcpState, TcpSocket};
 use embassy_net::udp::{PacketMetadata, RecvError, UdpSocket};
 use embassy_net::{IpAddress, IpEndpoint, Stack};
 use embassy_time::{Duration, Timer};
@@ -174,18 +174,24 @@ where
                 let outcome = engine.on_message(app, clock, from, bytes, received, reply);
                 let after = monitor.count();
                 if let Outcome::Reply { to, len } = outcome {
-                    let _ = socket
+                    let sent = socket
                         .send_to(reply.get(..len).unwrap_or(&[]), ip_endpoint(to))
                         .await;
+                    if sent.is_err() {
+                        engine.send_failed();
+                    }
                 }
                 monitor.message(engine, len, &outcome, (before, after));
             }
             Either::First(Err(RecvError::Truncated)) => engine.datagram_too_long(),
             Either::Second(()) => {
                 if let Some((to, len)) = engine.poll(app, clock, reply) {
-                    let _ = socket
+                    let sent = socket
                         .send_to(reply.get(..len).unwrap_or(&[]), ip_endpoint(to))
                         .await;
+                    if sent.is_err() {
+                        engine.send_failed();
+                    }
                 }
                 monitor.polled(engine);
             }
@@ -193,12 +199,13 @@ where
     }
 }
 
-/// Buffers of the TCP cycle task: socket buffers of `SOCK` bytes each way,
-/// the framer's `RX` = `layout::MAX_RECEIVE_LEN`, the reply's `TX` =
-/// `layout::MAX_SEND_LEN`.
+/// Buffers of the TCP cycle task: two sockets (the served connection and
+/// a standby that listens, so a controller that reconnects is seen; M10)
+/// with `SOCK` bytes each way, the framer's `RX` =
+/// `layout::MAX_RECEIVE_LEN`, the reply's `TX` = `layout::MAX_SEND_LEN`.
 pub struct TcpBuffers<const SOCK: usize, const RX: usize, const TX: usize> {
-    rx: [u8; SOCK],
-    tx: [u8; SOCK],
+    rx: [[u8; SOCK]; 2],
+    tx: [[u8; SOCK]; 2],
     chunk: [u8; 512],
     framer: Framer<RX>,
     reply: [u8; TX],
@@ -212,9 +219,15 @@ impl<const SOCK: usize, const RX: usize, const TX: usize> Default for TcpBuffers
 
 impl<const SOCK: usize, const RX: usize, const TX: usize> TcpBuffers<SOCK, RX, TX> {
     pub const fn new() -> Self {
+        const {
+            assert!(
+                SOCK >= TX,
+                "a TCP socket's send buffer must hold a whole reply (MAX_SEND_LEN)"
+            );
+        }
         TcpBuffers {
-            rx: [0; SOCK],
-            tx: [0; SOCK],
+            rx: [[0; SOCK]; 2],
+            tx: [[0; SOCK]; 2],
             chunk: [0; 512],
             framer: Framer::new(),
             reply: [0; TX],
@@ -233,11 +246,35 @@ async fn write_all(socket: &mut TcpSocket<'_>, mut bytes: &[u8]) -> bool {
     true
 }
 
-/// Runs the TCP cycle on `port` forever: one controller connection at a
-/// time (S2: `CONNECTED` when it is accepted, `CLOSED` when it goes), its
-/// byte stream cut into messages (M10), each answered on the same
-/// connection; a message longer than the receive buffer is a framing error
-/// that closes the connection.
+/// Puts a closed socket in listening mode without waiting for a
+/// connection (the first poll of `accept` listens); `false` when the port
+/// cannot be listened on.
+fn listen(socket: &mut TcpSocket<'_>, port: u16) -> bool {
+    if socket.state() != TcpState::Closed {
+        return true;
+    }
+    !matches!(
+        embassy_futures::poll_once(socket.accept(port)),
+        core::task::Poll::Ready(Err(_))
+    )
+}
+
+/// A connection is established (or its peer has half-closed it).
+fn connected(socket: &TcpSocket<'_>) -> bool {
+    !matches!(
+        socket.state(),
+        TcpState::Closed | TcpState::Listen | TcpState::SynSent | TcpState::SynReceived
+    )
+}
+
+/// Runs the TCP cycle on `port` forever: one controller connection served
+/// at a time (S2: `CONNECTED` when it is accepted, `CLOSED` when it goes),
+/// its byte stream cut into messages (M10), each answered on the same
+/// connection. A message longer than the receive buffer is a framing
+/// error, a reply that cannot be written a counted send error; both close
+/// the connection. A second socket listens meanwhile: a connection that
+/// stalls (M10, [`StallGuard`]) is closed and the waiting one served, so a
+/// half-open connection locks the controller out for `TimeOut` at most.
 #[allow(clippy::too_many_arguments)]
 pub async fn tcp_cycle<Rx, Tx, A, C, M, const SOCK: usize, const RX: usize, const TX: usize>(
     stack: Stack<'_>,
@@ -264,24 +301,39 @@ where
         framer,
         reply,
     } = buffers;
+    let [rx_a, rx_b] = rx;
+    let [tx_a, tx_b] = tx;
+    let mut a = TcpSocket::new(stack, rx_a, tx_a);
+    let mut b = TcpSocket::new(stack, rx_b, tx_b);
+    let (mut served, mut standby) = (&mut a, &mut b);
     loop {
-        let mut socket = TcpSocket::new(stack, rx, tx);
-        if socket.accept(port).await.is_err() {
+        // Both sockets listen; serve whichever connects first.
+        if !(listen(served, port) && listen(standby, port)) {
             engine.init_failed();
             Timer::after(POLL_INTERVAL).await;
             continue;
         }
-        let Some(from) = socket.remote_endpoint().and_then(endpoint) else {
-            socket.abort();
+        if !connected(served) {
+            if connected(standby) {
+                core::mem::swap(&mut served, &mut standby);
+            } else {
+                Timer::after(POLL_INTERVAL).await;
+                continue;
+            }
+        }
+        let Some(from) = served.remote_endpoint().and_then(endpoint) else {
+            served.abort();
             continue;
         };
         engine.listening();
         framer.reset();
+        let mut guard = StallGuard::new(engine.config().timeout_ms, clock.now());
         'connection: loop {
-            match select(socket.read(chunk), Timer::after(POLL_INTERVAL)).await {
+            match select(served.read(chunk), Timer::after(POLL_INTERVAL)).await {
                 Either::First(Ok(0)) | Either::First(Err(_)) => break 'connection,
                 Either::First(Ok(n)) => {
                     let received = clock.now();
+                    let mut completed = false;
                     let mut rest = chunk.get(..n).unwrap_or(&[]);
                     while !rest.is_empty() {
                         let Ok((used, message)) = framer.feed(rest) else {
@@ -290,30 +342,41 @@ where
                         };
                         rest = rest.get(used..).unwrap_or(&[]);
                         let Some(message) = message else { continue };
+                        completed = true;
                         let bytes = message.len();
                         let before = monitor.count();
                         let outcome = engine.on_message(app, clock, from, message, received, reply);
                         let after = monitor.count();
                         if let Outcome::Reply { len, .. } = outcome {
-                            if !write_all(&mut socket, reply.get(..len).unwrap_or(&[])).await {
+                            if !write_all(served, reply.get(..len).unwrap_or(&[])).await {
+                                engine.send_failed();
                                 break 'connection;
                             }
                         }
                         monitor.message(engine, bytes, &outcome, (before, after));
                     }
+                    guard.received(received, completed, framer.pending());
                 }
                 Either::Second(()) => {
                     if let Some((_, len)) = engine.poll(app, clock, reply) {
-                        if !write_all(&mut socket, reply.get(..len).unwrap_or(&[])).await {
+                        if !write_all(served, reply.get(..len).unwrap_or(&[])).await {
+                            engine.send_failed();
                             break 'connection;
                         }
                     }
                     monitor.polled(engine);
                 }
             }
+            if guard.check(clock.now(), connected(standby)).is_some() {
+                engine.stalled();
+                break 'connection;
+            }
         }
-        socket.abort();
-        let _ = socket.flush().await;
+        served.abort();
+        let _ = served.flush().await;
         engine.peer_closed();
+        // The standby (listening, or already holding the next connection)
+        // is served next; this one listens again.
+        core::mem::swap(&mut served, &mut standby);
     }
 }

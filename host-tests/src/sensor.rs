@@ -9,11 +9,13 @@ use rri_firmware::engine::{
 };
 use rri_firmware::layout::{self, DeviceEngine};
 use rri_firmware::sample::{Reading, SampleCell};
-use rri_firmware::tcp::Framer;
+use rri_firmware::tcp::{Framer, Stall, StallGuard};
 use std::io::{self, ErrorKind, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Sender;
+use std::sync::{mpsc, Arc};
+use std::thread::JoinHandle;
 use std::time::Duration;
 
 /// Device time on the host: microseconds since the sensor started.
@@ -94,12 +96,15 @@ pub fn stats_line(s: &Stats) -> String {
         0.0
     };
     format!(
-        "received {} answered {} periodic {} | dropped: foreign {} decode {} | lost {} dup {} reordered {} | timeouts {} max-lost {} | latency us min {} mean {:.0} max {}",
+        "received {} answered {} periodic {} | dropped: foreign {} invalid-source {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} | timeouts {} max-lost {} | latency us min {} mean {:.0} max {}",
         s.received,
         s.answered,
         s.periodic_sent,
         s.dropped_foreign,
+        s.dropped_invalid_source,
         s.dropped_decode,
+        s.send_errors,
+        s.stalled_closed,
         s.lost,
         s.duplicates,
         s.reordered,
@@ -176,6 +181,42 @@ impl Sensor<'_, '_> {
         self.note_state();
         self.tick();
         r
+    }
+}
+
+/// A host sensor on `127.0.0.1`, an ephemeral port, in a thread of its own
+/// (for tests): [`Background::stop`] ends it and returns its report.
+pub struct Background {
+    pub addr: SocketAddr,
+    stop: Arc<AtomicBool>,
+    thread: JoinHandle<io::Result<SensorReport>>,
+}
+
+impl Background {
+    /// Starts it (UDP, or TCP) with `config`; waits until it listens.
+    pub fn start(tcp: bool, config: Config) -> io::Result<Background> {
+        let stop = Arc::new(AtomicBool::new(false));
+        let (tx, rx) = mpsc::channel();
+        let opts = SensorOptions {
+            listen: SocketAddr::from(([127, 0, 0, 1], 0)),
+            tcp,
+            config,
+            stats_every: None,
+        };
+        let flag = stop.clone();
+        let thread = std::thread::spawn(move || run(&opts, &flag, Some(tx), &mut std::io::sink()));
+        let addr = rx
+            .recv_timeout(Duration::from_secs(5))
+            .map_err(|_| io::Error::other("the sensor did not start listening"))?;
+        Ok(Background { addr, stop, thread })
+    }
+
+    /// Stops it; its report, or the error that ended it early.
+    pub fn stop(self) -> io::Result<SensorReport> {
+        self.stop.store(true, Ordering::Relaxed);
+        self.thread
+            .join()
+            .map_err(|_| io::Error::other("the sensor thread panicked"))?
     }
 }
 
@@ -268,7 +309,7 @@ fn serve_udp(
                 let Some(from) = endpoint(from) else { continue };
                 if let Some((to, len)) = sensor.message(from, buf.get(..n).unwrap_or(&[]), received)
                 {
-                    socket.send_to(&sensor.out[..len], SocketAddr::from((to.ip, to.port)))?;
+                    send_udp(sensor, &socket, to, len);
                 }
             }
             Err(e)
@@ -281,10 +322,25 @@ fn serve_udp(
             Err(e) => return Err(e),
         }
         if let Some((to, len)) = sensor.poll() {
-            let _ = socket.send_to(&sensor.out[..len], SocketAddr::from((to.ip, to.port)));
+            send_udp(sensor, &socket, to, len);
         }
     }
     Ok(())
+}
+
+/// Sends the reply in `sensor.out`; a failure is counted and logged, never
+/// fatal (a controller that went away, a full socket buffer).
+fn send_udp(sensor: &mut Sensor<'_, '_>, socket: &UdpSocket, to: Endpoint, len: usize) {
+    let to_addr = SocketAddr::from((to.ip, to.port));
+    if let Err(e) = socket.send_to(&sensor.out[..len], to_addr) {
+        sensor.engine.send_failed();
+        if sensor.engine.stats().send_errors == 1 {
+            let _ = writeln!(
+                sensor.log,
+                "reply to {to_addr} not sent ({e}); counted as send-errors, the sensor goes on"
+            );
+        }
+    }
 }
 
 fn serve_tcp(
@@ -304,65 +360,130 @@ fn serve_tcp(
     if let Some(tx) = ready {
         let _ = tx.send(local);
     }
+    // A connection that arrived while another was served (M10: it may
+    // close a stalled one).
+    let mut waiting: Option<(TcpStream, SocketAddr)> = None;
     while !stop.load(Ordering::Relaxed) {
-        match listener.accept() {
-            Ok((stream, peer)) => {
+        let next = match waiting.take() {
+            Some(c) => Some(c),
+            None => match listener.accept() {
+                Ok(c) => Some(c),
+                Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::Interrupted) => {
+                    None
+                }
+                // The peer gave up between SYN and accept.
+                Err(e) if e.kind() == ErrorKind::ConnectionAborted => None,
+                Err(e) => return Err(e),
+            },
+        };
+        match next {
+            Some((stream, peer)) => {
                 let _ = writeln!(sensor.log, "connection from {peer}");
                 sensor.engine.listening();
                 sensor.note_state();
-                connection(sensor, stream, peer, stop)?;
+                connection(sensor, &listener, &mut waiting, stream, peer, stop);
                 sensor.engine.peer_closed();
                 sensor.note_state();
             }
-            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::Interrupted) => {
+            None => {
                 let _ = sensor.poll();
                 std::thread::sleep(Duration::from_micros(500));
             }
-            Err(e) => return Err(e),
         }
     }
     Ok(())
 }
 
+/// Why a connection ended, for the log.
+enum End {
+    Stop,
+    PeerClosed,
+    Framing,
+    SendFailed(io::Error),
+    ReadFailed(io::Error),
+    Stalled(Stall),
+}
+
 /// One TCP connection: framed messages in (M10), replies out, until the
-/// peer closes, a framing error, or stop.
+/// peer closes, a framing error, a failed send, a stall (M10), or stop.
+/// Whatever happens on the connection ends at most the connection.
 fn connection(
     sensor: &mut Sensor<'_, '_>,
+    listener: &TcpListener,
+    waiting: &mut Option<(TcpStream, SocketAddr)>,
+    stream: TcpStream,
+    peer: SocketAddr,
+    stop: &AtomicBool,
+) {
+    let end = serve_connection(sensor, listener, waiting, stream, peer, stop);
+    let why = match end {
+        End::Stop | End::PeerClosed => return,
+        End::Framing => format!(
+            "framing error: message longer than {} bytes",
+            layout::MAX_RECEIVE_LEN
+        ),
+        End::SendFailed(e) => format!("reply not sent ({e})"),
+        End::ReadFailed(e) => format!("read failed ({e})"),
+        End::Stalled(Stall::Incomplete) => format!(
+            "an incomplete message held longer than TimeOut ({} ms)",
+            sensor.engine.config().timeout_ms
+        ),
+        End::Stalled(Stall::SilentWhileWaiting) => format!(
+            "silent for TimeOut ({} ms) while another connection waits",
+            sensor.engine.config().timeout_ms
+        ),
+    };
+    let _ = writeln!(sensor.log, "closing the connection from {peer}: {why}");
+}
+
+fn serve_connection(
+    sensor: &mut Sensor<'_, '_>,
+    listener: &TcpListener,
+    waiting: &mut Option<(TcpStream, SocketAddr)>,
     mut stream: TcpStream,
     peer: SocketAddr,
     stop: &AtomicBool,
-) -> io::Result<()> {
-    stream.set_nonblocking(false)?;
-    stream.set_read_timeout(Some(Duration::from_micros(500)))?;
-    stream.set_nodelay(true)?;
+) -> End {
+    let timeout = Duration::from_millis(u64::from(sensor.engine.config().timeout_ms.max(1)));
+    let setup = stream
+        .set_nonblocking(false)
+        .and_then(|()| stream.set_read_timeout(Some(Duration::from_micros(500))))
+        // A peer that stops reading its replies must not block the sensor.
+        .and_then(|()| stream.set_write_timeout(Some(timeout)))
+        .and_then(|()| stream.set_nodelay(true));
+    if let Err(e) = setup {
+        return End::ReadFailed(e);
+    }
     let Some(from) = endpoint(peer) else {
-        return Ok(());
+        return End::PeerClosed;
     };
     let mut framer = Framer::<{ layout::MAX_RECEIVE_LEN }>::new();
+    let mut guard = StallGuard::new(sensor.engine.config().timeout_ms, sensor.clock.now());
     let mut chunk = [0u8; 4096];
     let mut replies: Vec<Vec<u8>> = Vec::new();
     while !stop.load(Ordering::Relaxed) {
         match stream.read(&mut chunk) {
-            Ok(0) => return Ok(()),
+            Ok(0) => return End::PeerClosed,
             Ok(n) => {
                 let received = sensor.clock.now();
+                let mut completed = false;
                 let framed = framer.push(&chunk[..n], |m| {
+                    completed = true;
                     if let Some((_, len)) = sensor.message(from, m, received) {
                         replies.push(sensor.out[..len].to_vec());
                     }
                 });
                 for r in replies.drain(..) {
-                    stream.write_all(&r)?;
+                    if let Err(e) = stream.write_all(&r) {
+                        sensor.engine.send_failed();
+                        return End::SendFailed(e);
+                    }
                 }
                 if framed.is_err() {
-                    let _ = writeln!(
-                        sensor.log,
-                        "framing error: message longer than {} bytes; closing",
-                        layout::MAX_RECEIVE_LEN
-                    );
                     sensor.engine.framing_error();
-                    return Ok(());
+                    return End::Framing;
                 }
+                guard.received(received, completed, framer.pending());
             }
             Err(e)
                 if matches!(
@@ -370,13 +491,26 @@ fn connection(
                     ErrorKind::WouldBlock | ErrorKind::TimedOut | ErrorKind::Interrupted
                 ) => {}
             Err(e) if matches!(e.kind(), ErrorKind::ConnectionReset | ErrorKind::BrokenPipe) => {
-                return Ok(())
+                return End::PeerClosed
             }
-            Err(e) => return Err(e),
+            Err(e) => return End::ReadFailed(e),
+        }
+        if waiting.is_none() {
+            if let Ok(c) = listener.accept() {
+                let _ = writeln!(sensor.log, "connection from {} waits", c.1);
+                *waiting = Some(c);
+            }
+        }
+        if let Some(stall) = guard.check(sensor.clock.now(), waiting.is_some()) {
+            sensor.engine.stalled();
+            return End::Stalled(stall);
         }
         if let Some((_, len)) = sensor.poll() {
-            stream.write_all(&sensor.out[..len])?;
+            if let Err(e) = stream.write_all(&sensor.out[..len]) {
+                sensor.engine.send_failed();
+                return End::SendFailed(e);
+            }
         }
     }
-    Ok(())
+    End::Stop
 }

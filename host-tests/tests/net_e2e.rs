@@ -5,86 +5,28 @@
 //! 1,000 cycles, every reply checked (M8 Id echo, root, decodable fields).
 //!
 //! Time is embassy-time's mock clock, advanced by the test: deterministic.
+//! TCP (`tcp_cycle`) has its own file, `net_tcp.rs`.
 
-use embassy_net::{Ipv4Cidr, StackResources, StaticConfigV4};
-use embassy_net_driver::{Capabilities, Driver, HardwareAddress, LinkState, RxToken, TxToken};
+mod memnet;
+
+use embassy_net::StackResources;
 use embassy_time::{Duration, MockDriver};
 use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMessage};
 use rri_firmware::codec::decode;
 use rri_firmware::demo::{simulated_distance, DemoApp};
 use rri_firmware::engine::{Clock, Engine, SensorState};
-use rri_firmware::net::{tcp_cycle, udp_cycle, EmbassyClock, TcpBuffers, UdpBuffers};
+use rri_firmware::net::{udp_cycle, EmbassyClock, UdpBuffers};
 use rri_firmware::sample::{Reading, SampleCell};
 use smoltcp::wire::{
     ArpOperation, ArpPacket, ArpRepr, EthernetAddress, EthernetFrame, EthernetProtocol,
     EthernetRepr, IpProtocol, Ipv4Address, Ipv4Packet, Ipv4Repr, UdpPacket, UdpRepr,
 };
-use std::cell::RefCell;
-use std::collections::VecDeque;
-use std::future::Future;
 use std::pin::pin;
 use std::rc::Rc;
-use std::task::{Context, Poll, Waker};
 
-const DEVICE_MAC: [u8; 6] = [0x02, 0, 0, 0, 0, 0x01];
-const ROBOT_MAC: [u8; 6] = [0x02, 0, 0, 0, 0, 0x02];
-const ROBOT_IP: [u8; 4] = [10, 49, 65, 1];
+use memnet::{net_config, poll_once, Frames, MemDriver, DEVICE_MAC, ROBOT_IP, ROBOT_MAC};
+
 const ROBOT_PORT: u16 = 6510;
-
-type Frames = Rc<RefCell<VecDeque<Vec<u8>>>>;
-
-/// An Ethernet "cable" in memory: frames to the device and from it.
-struct MemDriver {
-    to_device: Frames,
-    from_device: Frames,
-    mac: [u8; 6],
-}
-
-struct MemRx(Vec<u8>);
-struct MemTx(Frames);
-
-impl RxToken for MemRx {
-    fn consume<R, F: FnOnce(&mut [u8]) -> R>(mut self, f: F) -> R {
-        f(&mut self.0)
-    }
-}
-
-impl TxToken for MemTx {
-    fn consume<R, F: FnOnce(&mut [u8]) -> R>(self, len: usize, f: F) -> R {
-        let mut frame = vec![0; len];
-        let r = f(&mut frame);
-        self.0.borrow_mut().push_back(frame);
-        r
-    }
-}
-
-impl Driver for MemDriver {
-    type RxToken<'a> = MemRx;
-    type TxToken<'a> = MemTx;
-
-    fn receive(&mut self, _: &mut Context) -> Option<(MemRx, MemTx)> {
-        let frame = self.to_device.borrow_mut().pop_front()?;
-        Some((MemRx(frame), MemTx(self.from_device.clone())))
-    }
-
-    fn transmit(&mut self, _: &mut Context) -> Option<MemTx> {
-        Some(MemTx(self.from_device.clone()))
-    }
-
-    fn link_state(&mut self, _: &mut Context) -> LinkState {
-        LinkState::Up
-    }
-
-    fn capabilities(&self) -> Capabilities {
-        let mut c = Capabilities::default();
-        c.max_transmission_unit = 1514;
-        c
-    }
-
-    fn hardware_address(&self) -> HardwareAddress {
-        HardwareAddress::Ethernet(self.mac)
-    }
-}
 
 /// A UDP datagram from the robot to the device, as a whole Ethernet frame.
 fn robot_frame(device_ip: [u8; 4], payload: &[u8]) -> Vec<u8> {
@@ -178,15 +120,6 @@ fn robot_receive(frame: &[u8], device_ip: [u8; 4], to_device: &Frames) -> Option
     }
 }
 
-/// A static IPv4 configuration on a /24.
-fn net_config(ip: [u8; 4]) -> embassy_net::Config {
-    embassy_net::Config::ipv4_static(StaticConfigV4 {
-        address: Ipv4Cidr::new(Ipv4Address::from(ip), 24),
-        gateway: None,
-        dns_servers: Default::default(),
-    })
-}
-
 /// The boards' UDP cycle task (`udp_cycle`) with `engine` and `app` on an
 /// embassy-net stack over a fresh in-memory Ethernet (the mock clock
 /// reset), with the link up and the socket bound. `body` gets `step(n)`,
@@ -232,10 +165,6 @@ fn with_udp_device<A>(
     };
     step(50); // link up, socket bound
     body(&mut step, &to_device, &from_device);
-}
-
-fn poll_once<F: Future>(f: std::pin::Pin<&mut F>) -> Poll<F::Output> {
-    f.poll(&mut Context::from_waker(Waker::noop()))
 }
 
 #[test]
@@ -326,138 +255,6 @@ fn thousand_cycles_over_embassy_net_with_real_frames() {
         s.latency.max_us,
         s.latency.total_us as f64 / 1000.0
     );
-}
-
-/// M10 over a real TCP connection: the boards' `tcp_cycle` on one
-/// embassy-net stack, a robot on a second stack, both on one in-memory
-/// Ethernet. 200 messages, each written in two pieces; then a message
-/// longer than the receive buffer, which closes the connection (S2:
-/// CLOSED).
-#[test]
-fn tcp_cycle_over_embassy_net_frames_answers_and_closes() {
-    use embassy_net::tcp::TcpSocket;
-    use rri_firmware::tcp::Framer;
-
-    let device_ip = layout::NETWORK_IPV4.expect("IPv4");
-    MockDriver::get().reset();
-    let a: Frames = Rc::default();
-    let b: Frames = Rc::default();
-    let device_driver = MemDriver {
-        to_device: a.clone(),
-        from_device: b.clone(),
-        mac: DEVICE_MAC,
-    };
-    let robot_driver = MemDriver {
-        to_device: b.clone(),
-        from_device: a.clone(),
-        mac: ROBOT_MAC,
-    };
-    let mut device_res = StackResources::<2>::new();
-    let mut robot_res = StackResources::<2>::new();
-    let (device_stack, mut device_runner) =
-        embassy_net::new(device_driver, net_config(device_ip), &mut device_res, 1);
-    let (robot_stack, mut robot_runner) =
-        embassy_net::new(robot_driver, net_config(ROBOT_IP), &mut robot_res, 2);
-
-    let mut engine: Engine<RobDataMessage, SensDataMessage> = Engine::new(layout::ENGINE_CONFIG);
-    let mut buffers =
-        TcpBuffers::<4096, { layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>::new();
-    let clock = EmbassyClock;
-    let (mut rx, mut tx) = ([0u8; 4096], [0u8; 4096]);
-    let mut app = ();
-    let answered = std::cell::Cell::new(0u32);
-    let closed_by_device = std::cell::Cell::new(false);
-
-    let mut monitor = ();
-    {
-        let mut device_net = pin!(device_runner.run());
-        let mut robot_net = pin!(robot_runner.run());
-        let mut task = pin!(tcp_cycle(
-            device_stack,
-            layout::CHANNEL_PORT,
-            &mut engine,
-            &mut app,
-            &clock,
-            &mut buffers,
-            &mut monitor
-        ));
-        let mut robot = pin!(async {
-            let mut socket = TcpSocket::new(robot_stack, &mut rx, &mut tx);
-            socket
-                .connect((Ipv4Address::from(device_ip), layout::CHANNEL_PORT))
-                .await
-                .expect("connects");
-            let mut framer = Framer::<4096>::new();
-            let mut chunk = [0u8; 1024];
-            for id in 1..=200u32 {
-                let msg = format!(r#"<RobData Id="{id}" Ts="1.0"><Ts_act>1.0</Ts_act></RobData>"#);
-                let (first, second) = msg.as_bytes().split_at(msg.len() / 2);
-                for part in [first, second] {
-                    let mut rest = part;
-                    while !rest.is_empty() {
-                        let n = socket.write(rest).await.expect("writes");
-                        rest = &rest[n..];
-                    }
-                }
-                let mut reply = None;
-                while reply.is_none() {
-                    let n = socket.read(&mut chunk).await.expect("reads");
-                    assert!(n > 0, "connection open");
-                    framer
-                        .push(&chunk[..n], |m| reply = Some(m.to_vec()))
-                        .expect("replies fit");
-                }
-                let mut data = layout::SensorData::default();
-                let d =
-                    decode::<SensDataMessage>(&reply.expect("reply"), &mut data).expect("decodes");
-                assert_eq!(d.id, id, "M8 over TCP");
-                answered.set(answered.get() + 1);
-            }
-            // Longer than the device's receive buffer: a framing error (M10).
-            let big = format!(
-                "<RobData Id=\"999\">{}</RobData>",
-                " ".repeat(layout::MAX_RECEIVE_LEN + 10)
-            );
-            let mut rest = big.as_bytes();
-            while !rest.is_empty() {
-                match socket.write(rest).await {
-                    Ok(0) | Err(_) => break,
-                    Ok(n) => rest = &rest[n..],
-                }
-            }
-            loop {
-                match socket.read(&mut chunk).await {
-                    Ok(0) | Err(_) => break,
-                    Ok(_) => {}
-                }
-            }
-            closed_by_device.set(true);
-        });
-        let mut done = false;
-        for _ in 0..200_000 {
-            assert!(poll_once(device_net.as_mut()).is_pending());
-            assert!(poll_once(robot_net.as_mut()).is_pending());
-            assert!(poll_once(task.as_mut()).is_pending());
-            if poll_once(robot.as_mut()).is_ready() {
-                done = true;
-                break;
-            }
-            MockDriver::get().advance(Duration::from_micros(50));
-        }
-        assert!(done, "the robot finished ({} answered)", answered.get());
-        // Let the device notice the close.
-        for _ in 0..100 {
-            let _ = poll_once(device_net.as_mut());
-            let _ = poll_once(robot_net.as_mut());
-            let _ = poll_once(task.as_mut());
-            MockDriver::get().advance(Duration::from_micros(50));
-        }
-    }
-    assert_eq!(answered.get(), 200);
-    assert!(closed_by_device.get());
-    let s = engine.stats();
-    assert_eq!((s.answered, s.framing_errors, s.closed), (200, 1, 1));
-    assert_eq!(engine.state(), SensorState::Closed);
 }
 
 /// Fills the reply with its widest values. The manual's reply can reach

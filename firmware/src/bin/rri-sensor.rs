@@ -36,8 +36,13 @@ const ADDRESS: [u8; 4] = match layout::NETWORK_IPV4 {
     None => panic!("Description.xml's Network Address must be an IPv4 address for a board"),
 };
 const TCP: bool = matches!(layout::CHANNEL_PROTOCOL, ChannelProtocol::Tcp);
-/// TCP socket buffers: a few messages each way.
-const TCP_SOCKET: usize = 2 * layout::MAX_RECEIVE_LEN;
+/// TCP socket buffers, each way, for each of the two sockets (the served
+/// connection and the standby; M10): one message of either direction.
+const TCP_SOCKET: usize = if layout::MAX_RECEIVE_LEN > layout::MAX_SEND_LEN {
+    layout::MAX_RECEIVE_LEN
+} else {
+    layout::MAX_SEND_LEN
+};
 /// The watchdog resets the board when the cycle stops turning this long.
 const WATCHDOG_MS: u32 = 2_000;
 
@@ -122,6 +127,7 @@ async fn network(nic: Nic, seed: u64, reader: SampleReader<'static, 1>) {
         gateway: network::GATEWAY.map(|[a, b, c, d]| Ipv4Address::new(a, b, c, d)),
         dns_servers: Default::default(),
     });
+    // Sockets: one (UDP), or two (TCP: the served connection and the standby).
     static RESOURCES: StaticCell<StackResources<2>> = StaticCell::new();
     let (stack, runner) =
         embassy_net::new(nic, config, RESOURCES.init(StackResources::new()), seed);
@@ -296,11 +302,14 @@ fn state_led(state: SensorState, tick: u32) -> bool {
 fn log_counters(s: &Snapshot) {
     let st = &s.stats;
     defmt::info!(
-        "counters: received {} answered {} dropped foreign {} decode {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {}",
+        "counters: received {} answered {} dropped foreign {} invalid-source {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {}",
         st.received,
         st.answered,
         st.dropped_foreign,
+        st.dropped_invalid_source,
         st.dropped_decode,
+        st.send_errors,
+        st.stalled_closed,
         st.lost,
         st.duplicates,
         st.reordered,
