@@ -101,7 +101,8 @@ fn fill(open: &str, unit: &str, close: &str, total: usize) -> String {
 
 /// The most expensive inputs the decoder accepts or rejects late, each
 /// exactly `layout::MAX_RECEIVE_LEN` bytes (longer ones are rejected at
-/// once by length).
+/// once by length). Those the decoder rejects early (too many extras, a
+/// repeated field) stay in the corpus: the bench shows what they cost now.
 pub fn hostile() -> Vec<Input> {
     let max = layout::MAX_RECEIVE_LEN;
     let manual = compact_manual();
@@ -109,24 +110,68 @@ pub fn hostile() -> Vec<Input> {
     let body_end = rest.rfind("</RobData>").unwrap_or(rest.len());
     let (body, close) = rest.split_at(body_end);
     let inside = |unit: &str, tail: &str| fill(head, unit, &format!("{body}{tail}{close}"), max);
-    // An f32 halfway case: exact decimal expansion, then digits that only
-    // the last place decides (core's slow path without a bounded parser).
-    let halfway = "1.00000005960464477539062500000000000000001";
-    let long_numbers = {
-        let mut s = String::from("<RobData Id=\"{ID}\" Ts=\"1.202\"><AppData");
-        let mut i = 1;
-        while s.len() + 8 + halfway.len() + 30 < max && i <= 18 {
-            s.push_str(&format!(" X{i}=\"{halfway}\""));
-            i += 1;
-        }
-        s.push_str("/>");
-        fill(&s, &format!("<P_act X=\"{halfway}\"/>"), "</RobData>", max)
+    // An f32 halfway case as long as a number may be (MAX_NUMBER_LEN): its
+    // exact decimal expansion, then digits that only the last place
+    // decides (the exact slow path of the number parser).
+    let halfway = format!(
+        "1.000000059604644775390625{}1",
+        "0".repeat(rri_firmware::codec::number::MAX_NUMBER_LEN - 27)
+    );
+    assert_eq!(halfway.len(), rri_firmware::codec::number::MAX_NUMBER_LEN);
+    let attrs = |names: &[&str]| -> String {
+        names
+            .iter()
+            .map(|n| format!(" {n}=\"{halfway}\""))
+            .collect()
+    };
+    let frame = attrs(&["X", "Y", "Z", "Rx", "Ry", "Rz"]);
+    let joints = attrs(&["J1", "J2", "J3", "J4", "J5", "J6"]);
+    let app: Vec<String> = (1..=18).map(|i| format!("X{i}")).collect();
+    let app = attrs(&app.iter().map(String::as_str).collect::<Vec<_>>());
+    // Every real of the layout once, each a halfway case: the most slow
+    // paths a message without repeats can hold.
+    let every_real_halfway = fill(
+        &format!(
+            "<RobData Id=\"{{ID}}\" Ts=\"1.202\"><P_act{frame}/><J_act{joints}/><P_des{frame}/><J_des{joints}/><AppData{app}/>"
+        ),
+        " ",
+        "</RobData>",
+        max,
+    );
+    let repeated_field = {
+        let s = format!("<RobData Id=\"{{ID}}\" Ts=\"1.202\"><AppData{app}/>");
+        fill(&s, &format!("<P_act{frame}/>"), "</RobData>", max)
+    };
+    // One number as long as the datagram allows: refused unread.
+    let one_long_number = {
+        let open = "<RobData Id=\"{ID}\" Ts=\"1.202\"><AppData X1=\"1.";
+        fill(open, "0", "1\"/></RobData>", max)
     };
     vec![
         Input {
             name: "whitespace padding".into(),
             text: fill(head, " ", &format!("{body}{close}"), max),
             accepted: true,
+        },
+        Input {
+            name: "every real a halfway case".into(),
+            text: every_real_halfway,
+            accepted: true,
+        },
+        Input {
+            name: "entity references".into(),
+            text: inside("", &fill("<U>", "&amp;", "</U>", max / 2)),
+            accepted: true,
+        },
+        Input {
+            name: "one long number".into(),
+            text: one_long_number,
+            accepted: false,
+        },
+        Input {
+            name: "repeated field".into(),
+            text: repeated_field,
+            accepted: false,
         },
         Input {
             name: "unknown attributes".into(),
@@ -136,32 +181,27 @@ pub fn hostile() -> Vec<Input> {
                 "></RobData>",
                 max,
             ),
-            accepted: true,
+            accepted: false,
         },
         Input {
             name: "unknown empty elements".into(),
             text: inside("<U/>", ""),
-            accepted: true,
+            accepted: false,
         },
         Input {
-            name: "long numbers".into(),
-            text: long_numbers,
-            accepted: true,
-        },
-        Input {
-            name: "entity references".into(),
-            text: inside("", &fill("<U>", "&amp;", "</U>", max / 2)),
-            accepted: true,
+            name: "attributes of an unknown element".into(),
+            text: inside("", &fill("<U", " u=\"1\"", "/>", max / 2)),
+            accepted: false,
         },
         Input {
             name: "comments".into(),
             text: inside("<!---->", ""),
-            accepted: true,
+            accepted: false,
         },
         Input {
             name: "processing instructions".into(),
             text: inside("<?p?>", ""),
-            accepted: true,
+            accepted: false,
         },
         Input {
             name: "rejected at the last byte".into(),

@@ -56,6 +56,9 @@ pub enum DecodeErrorKind {
     InvalidNumber,
     /// A decimal number beyond the type's range (`1e39` for `f32`).
     NumberOutOfRange,
+    /// A `real` text longer than [`super::number::MAX_NUMBER_LEN`]
+    /// characters: refused unread (M5 decision; bounded cost).
+    NumberTooLong,
     /// A `time` that is not a decimal number of seconds, or beyond range.
     InvalidTime,
     /// A `bool` other than `true/false/1/0` in any case (M7).
@@ -64,11 +67,26 @@ pub enum DecodeErrorKind {
     UnknownEnumMember,
     /// An entity or character reference that is not defined (M6).
     BadReference,
+    /// A field, `Id` or `Ts` given twice in one message: no controller
+    /// does that, and each repeat would cost a value's decoding again.
+    Duplicate,
+    /// More items the layout does not account for (unknown elements and
+    /// attributes, attributes beyond a value's count, comments, processing
+    /// instructions, stray text) than [`EXTRA_ITEMS`] allows: rejected as
+    /// soon as the limit is passed, so the cost of any datagram stays that
+    /// of a legitimate one.
+    TooManyExtras,
 }
+
+/// How many items a message may hold beyond its layout's fields before it
+/// is rejected ([`DecodeErrorKind::TooManyExtras`]), on top of one per
+/// field: room for a controller configured with a few more fields or
+/// attributes than the device, and for a comment or two.
+pub const EXTRA_ITEMS: usize = 16;
 
 impl DecodeErrorKind {
     /// Every kind, in declaration order (the statistics count each).
-    pub const ALL: [DecodeErrorKind; 18] = [
+    pub const ALL: [DecodeErrorKind; 21] = [
         Self::TooLong,
         Self::NotUtf8,
         Self::Doctype,
@@ -83,10 +101,13 @@ impl DecodeErrorKind {
         Self::MismatchedTag,
         Self::InvalidNumber,
         Self::NumberOutOfRange,
+        Self::NumberTooLong,
         Self::InvalidTime,
         Self::InvalidBool,
         Self::UnknownEnumMember,
         Self::BadReference,
+        Self::Duplicate,
+        Self::TooManyExtras,
     ];
 
     /// Position in [`DecodeErrorKind::ALL`].
@@ -246,6 +267,7 @@ fn real(text: &str, at: usize) -> Result<f32, DecodeError> {
     parse_f32(text.as_bytes()).map_err(|e| match e {
         NumberError::Syntax => err(DecodeErrorKind::InvalidNumber, at),
         NumberError::OutOfRange => err(DecodeErrorKind::NumberOutOfRange, at),
+        NumberError::TooLong => err(DecodeErrorKind::NumberTooLong, at),
     })
 }
 
@@ -469,6 +491,11 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
     let mut c = Collected::new();
     let mut tally = Tally::default();
     let mut last_end = base;
+    // Items the layout does not account for, and how many are allowed.
+    let mut extras = Extras {
+        count: 0,
+        limit: M::FIELDS.len().saturating_add(EXTRA_ITEMS),
+    };
 
     if value_body {
         target = Target::Slot(0);
@@ -487,9 +514,11 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
             err(kind, last_end)
         })?;
         match token {
-            Token::Declaration { span, .. }
-            | Token::ProcessingInstruction { span, .. }
-            | Token::Comment { span, .. } => last_end = base + span.end(),
+            Token::Declaration { span, .. } => last_end = base + span.end(),
+            Token::ProcessingInstruction { span, .. } | Token::Comment { span, .. } => {
+                extras.add(base + span.start())?;
+                last_end = base + span.end();
+            }
             Token::DtdStart { span, .. }
             | Token::EmptyDtd { span, .. }
             | Token::EntityDeclaration { span, .. }
@@ -518,12 +547,17 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
                         child = name;
                         target = match (value_body, M::field_index(name.as_bytes())) {
                             (false, Some(i)) if prefix.is_empty() => {
-                                seen |= 1u64.checked_shl(i as u32).unwrap_or(0);
+                                let bit = 1u64.checked_shl(i as u32).unwrap_or(0);
+                                if seen & bit != 0 {
+                                    return Err(err(K::Duplicate, at));
+                                }
+                                seen |= bit;
                                 c = Collected::new();
                                 Target::Slot(i)
                             }
                             _ => {
                                 bump(&mut tally.unknown_elements);
+                                extras.add(at)?;
                                 Target::None
                             }
                         };
@@ -543,12 +577,24 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
                 let at = base + value.start();
                 let name = local.as_str().as_bytes();
                 if depth == 1 && prefix.is_empty() && name == b"Id" {
+                    if id.is_some() {
+                        return Err(err(K::Duplicate, at));
+                    }
                     id = Some(parse_u32(value.as_bytes()).map_err(|_| err(K::InvalidId, at))?);
                 } else if depth == 1 && prefix.is_empty() && name == b"Ts" {
+                    if ts.is_some() {
+                        return Err(err(K::Duplicate, at));
+                    }
                     ts = Some(parse_time(value.as_bytes()).map_err(|_| err(K::InvalidTs, at))?);
                 } else if let (Target::Slot(i), true) = (target, depth == 1 || !value_body) {
                     let known = match M::field_mut(data, i) {
                         Some(field) if prefix.is_empty() => {
+                            // A value's attributes beyond its count (a
+                            // repeated `X="…"`) are extras: each would be
+                            // parsed again.
+                            if components(&field).is_some_and(|n| c.assigned >= n) {
+                                extras.add(at)?;
+                            }
                             let known = set_component(field, name, value.as_str(), at, &mut tally)?;
                             if known {
                                 c.assigned += 1;
@@ -559,9 +605,14 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
                     };
                     if !known {
                         bump(&mut tally.unknown_attributes);
+                        extras.add(at)?;
                     }
-                } else if target != Target::None || depth == 1 {
-                    bump(&mut tally.unknown_attributes);
+                } else {
+                    if target != Target::None || depth == 1 {
+                        bump(&mut tally.unknown_attributes);
+                    }
+                    // Inside a skipped element too: each costs tokenizing.
+                    extras.add(at)?;
                 }
                 last_end = base + span.end();
             }
@@ -618,6 +669,7 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
                     _ => {
                         if depth == 1 && !trim(t.as_bytes()).is_empty() {
                             bump(&mut tally.stray_text);
+                            extras.add(at)?;
                         }
                     }
                 }
@@ -637,6 +689,25 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
             .saturating_add(u16::try_from(missing).unwrap_or(u16::MAX));
     }
     Ok(Decoded { id, ts, tally })
+}
+
+/// The count of items a message holds beyond its layout (see
+/// [`EXTRA_ITEMS`]).
+struct Extras {
+    count: usize,
+    limit: usize,
+}
+
+impl Extras {
+    /// One more at byte `at`; an error once there are more than allowed.
+    fn add(&mut self, at: usize) -> Result<(), DecodeError> {
+        self.count += 1;
+        if self.count > self.limit {
+            Err(err(DecodeErrorKind::TooManyExtras, at))
+        } else {
+            Ok(())
+        }
+    }
 }
 
 /// Whether the input after the last complete token is only the start of

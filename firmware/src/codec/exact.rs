@@ -33,9 +33,13 @@ const MAX_MAGNITUDE: i32 = 38;
 const MIN_MAGNITUDE: i32 = -46;
 
 /// A decimal text cut to its first [`KEPT`] significant digits:
-/// `digits × 10^exponent`, plus `sticky` when non-zero digits were cut.
+/// `value × 10^exponent`, plus `sticky` when non-zero digits were cut.
 struct Cut {
-    digits: [u8; KEPT],
+    /// The kept digits as an integer.
+    value: Big,
+    /// The first 19 kept digits (all of them when fewer): the
+    /// approximation's mantissa.
+    lead: u64,
     kept: usize,
     exponent: i32,
     sticky: bool,
@@ -45,11 +49,14 @@ struct Cut {
 /// fraction, optional exponent) into its cut significant digits. One pass.
 fn cut(t: &[u8]) -> Cut {
     let mut c = Cut {
-        digits: [0; KEPT],
+        value: Big::from_u64(0),
+        lead: 0,
         kept: 0,
         exponent: 0,
         sticky: false,
     };
+    // Digits go into `value` nine at a time (one word operation each).
+    let (mut chunk, mut scale) = (0u32, 1u32);
     let mut fraction = false;
     let mut rest = t;
     if let Some((b'+' | b'-', r)) = rest.split_first() {
@@ -62,8 +69,16 @@ fn cut(t: &[u8]) -> Cut {
             if c.kept == 0 && d == 0 {
                 // A leading zero: only its place counts, after the point.
                 c.exponent -= i32::from(fraction);
-            } else if let Some(slot) = c.digits.get_mut(c.kept) {
-                *slot = d;
+            } else if c.kept < KEPT {
+                chunk = chunk * 10 + u32::from(d);
+                scale *= 10;
+                if scale == 1_000_000_000 {
+                    c.value.mul_add(scale, chunk);
+                    (chunk, scale) = (0, 1);
+                }
+                if c.kept < 19 {
+                    c.lead = c.lead * 10 + u64::from(d);
+                }
                 c.kept += 1;
                 c.exponent -= i32::from(fraction);
             } else {
@@ -77,6 +92,9 @@ fn cut(t: &[u8]) -> Cut {
         } else {
             break;
         }
+    }
+    if scale > 1 {
+        c.value.mul_add(scale, chunk);
     }
     if let Some((b'e' | b'E', r)) = rest.split_first() {
         let (negative, digits) = match r.split_first() {
@@ -267,12 +285,7 @@ fn approximate(c: &Cut) -> f64 {
         1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
     ];
     let n = c.kept.min(19);
-    let m = c
-        .digits
-        .iter()
-        .take(n)
-        .fold(0u64, |m, &d| m * 10 + u64::from(d));
-    let mut v = m as f64;
+    let mut v = c.lead as f64;
     // Within the magnitude bounds, |e| < 190: at most nine steps.
     let mut e = c.exponent + (c.kept - n) as i32;
     while e != 0 {
@@ -287,6 +300,48 @@ fn approximate(c: &Cut) -> f64 {
         }
     }
     v
+}
+
+/// How far (in `f64` ulps) [`approximate`] may be off, with a wide margin:
+/// ≤ 19 digits exact in a `u64`, one rounding to `f64`, at most nine
+/// multiplications or divisions by exact powers of ten (≤ 0.5 ulp each),
+/// and the digits past 19 (< 10^-18 relative).
+const APPROXIMATION_ULPS: u64 = 64;
+
+/// The common case in two steps: when the approximation is far from every
+/// `f32` midpoint, its rounding is the exact value's; when it is near one,
+/// a single exact comparison with that midpoint decides. `None` near the
+/// top of the range or below the smallest subnormal, where the general
+/// loop runs.
+fn settle_near(d: &Big, c: &Cut, approx: f64) -> Result<Option<f32>, NumberError> {
+    const NEAR_MAX: f64 = 3.0e38;
+    if approx >= NEAR_MAX {
+        return Ok(None);
+    }
+    let bits = approx.to_bits();
+    // The f64 mantissa bits below f32 precision: 29 for a normal f32,
+    // more for a subnormal one (its spacing stays 2^-149).
+    let exponent = ((bits >> 52) & 0x7ff) as i32 - 1023;
+    let width = 29 + (-126 - exponent).max(0).unsigned_abs();
+    if width > 52 {
+        return Ok(None);
+    }
+    let below_f32 = (1u64 << width) - 1;
+    let midpoint_bits = 1u64 << (width - 1);
+    if (bits & below_f32).abs_diff(midpoint_bits) > APPROXIMATION_ULPS {
+        return Ok(Some(approx as f32));
+    }
+    // Near the midpoint between `below` (the approximation cut to `f32`
+    // precision, exact) and the next `f32`.
+    let below = (f64::from_bits(bits & !below_f32) as f32).to_bits();
+    let above = below + 1;
+    let v = match compare(d, c, midpoint(below, above))? {
+        Ordering::Greater => above,
+        Ordering::Less => below,
+        Ordering::Equal if below & 1 == 0 => below,
+        Ordering::Equal => above,
+    };
+    Ok(Some(f32::from_bits(v)))
 }
 
 /// The correctly rounded magnitude of a decimal text (sign ignored; the
@@ -305,20 +360,16 @@ pub fn parse_magnitude(t: &[u8]) -> Result<f32, NumberError> {
     if magnitude < MIN_MAGNITUDE {
         return Ok(0.0);
     }
-    let mut d = Big::from_u64(0);
-    for chunk in c.digits.get(..c.kept).unwrap_or(&[]).chunks(9) {
-        let (mut scale, mut value) = (1u32, 0u32);
-        for &digit in chunk {
-            scale *= 10;
-            value = value * 10 + u32::from(digit);
-        }
-        d.mul_add(scale, value);
-    }
+    let d = &c.value;
     const INFINITY: u32 = 0x7f80_0000;
-    let mut bits = (approximate(&c) as f32).to_bits().min(INFINITY - 1);
+    let approx = approximate(&c);
+    if let Some(v) = settle_near(d, &c, approx)? {
+        return Ok(v);
+    }
+    let mut bits = (approx as f32).to_bits().min(INFINITY - 1);
     // The approximation is at most one step off; a few rounds settle it.
     for _ in 0..4 {
-        let up = compare(&d, &c, midpoint(bits, bits + 1))?;
+        let up = compare(d, &c, midpoint(bits, bits + 1))?;
         if up == Ordering::Greater || (up == Ordering::Equal && bits & 1 == 1) {
             bits += 1;
             if bits >= INFINITY {
@@ -327,7 +378,7 @@ pub fn parse_magnitude(t: &[u8]) -> Result<f32, NumberError> {
             continue;
         }
         if bits > 0 {
-            let down = compare(&d, &c, midpoint(bits - 1, bits))?;
+            let down = compare(d, &c, midpoint(bits - 1, bits))?;
             if down == Ordering::Less || (down == Ordering::Equal && bits & 1 == 1) {
                 bits -= 1;
                 continue;
@@ -415,17 +466,35 @@ mod tests {
     #[test]
     fn m5_exact_on_midpoints() {
         let mut y: u32 = 7;
-        for _ in 0..3_000 {
+        // Random ones, then the subnormals' and the smallest normals'
+        // edges, where the f32 spacing stops shrinking.
+        let edges = (0..300).chain(0x007f_ff00..0x0080_0100);
+        let random = (0..20_000).map(|_| {
             y ^= y << 13;
             y ^= y >> 17;
             y ^= y << 5;
-            let bits = y & 0x7f7f_ffff;
+            y & 0x7f7f_ffff
+        });
+        for bits in random.chain(edges) {
             let (m, q) = midpoint(bits, bits + 1);
             let (digits, e) = exact_decimal(m, q);
+            // One less in the last place, then nines: a hair below it.
+            let mut below = digits.clone().into_bytes();
+            for b in below.iter_mut().rev() {
+                if *b == b'0' {
+                    *b = b'9';
+                } else {
+                    *b -= 1;
+                    break;
+                }
+            }
+            let below = String::from_utf8(below).unwrap();
             for text in [
                 format!("{digits}e{e}"),
                 format!("{digits}1e{}", e - 1),
                 format!("{digits}0000001e{}", e - 7),
+                format!("{below}9999999e{}", e - 7),
+                format!("{below}9e{}", e - 1),
             ] {
                 assert_eq!(ours(&text), oracle(&text), "{text}");
             }

@@ -12,5 +12,5 @@ mod exact;
 pub mod number;
 pub mod text;
 
-pub use decode::{decode, DecodeError, DecodeErrorKind, Decoded, Tally};
+pub use decode::{decode, DecodeError, DecodeErrorKind, Decoded, Tally, EXTRA_ITEMS};
 pub use encode::{encode, BufferTooSmall, Encoded};

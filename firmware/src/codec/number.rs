@@ -19,7 +19,16 @@ pub enum NumberError {
     Syntax,
     /// A number, but outside what the type can hold.
     OutOfRange,
+    /// Longer than [`MAX_NUMBER_LEN`] characters.
+    TooLong,
 }
+
+/// The longest number text accepted (whitespace around it aside): what
+/// the generated `MAX_RECEIVE_LEN` allows each value (`sizes.rs` in
+/// gsi-codegen), far more than the 9 significant digits of an `f32` a
+/// controller writes. A longer text is refused before any arithmetic, so
+/// a number's cost is bounded whatever the datagram holds.
+pub const MAX_NUMBER_LEN: usize = 48;
 
 /// Strips XML whitespace (space, tab, CR, LF) from both ends.
 pub fn trim(s: &[u8]) -> &[u8] {
@@ -244,6 +253,9 @@ fn plain_decimal(t: &[u8]) -> Option<f32> {
 /// [`super::exact`], exact with bounded work and no tables.
 pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
     let t = trim(text);
+    if t.len() > MAX_NUMBER_LEN {
+        return Err(NumberError::TooLong);
+    }
     if let Some(v) = plain_decimal(t) {
         return Ok(v);
     }
@@ -296,6 +308,9 @@ pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
 /// ```
 pub fn parse_time(text: &[u8]) -> Result<Time, NumberError> {
     let t = trim(text);
+    if t.len() > MAX_NUMBER_LEN {
+        return Err(NumberError::TooLong);
+    }
     if !is_decimal(t) {
         return Err(NumberError::Syntax);
     }

@@ -10,6 +10,11 @@
 //! instructions per message under callgrind, which is deterministic:
 //! `--callgrind` re-runs this binary under `valgrind --tool=callgrind` for
 //! N=1000 and N=2000 and prints (Ir(2000) − Ir(1000)) / 1000 for each path.
+//!
+//! `cargo codec-bench -- --hostile` measures the hostile corpus of the
+//! QEMU bench (every input `MAX_RECEIVE_LEN` bytes, accepted or rejected)
+//! the same way, decode only, and prints instructions per message and per
+//! byte beside the manual's message.
 
 use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMessage};
 use rri_firmware::baseline::{self, Naive};
@@ -90,6 +95,99 @@ fn ours_half(bytes: &[u8], n: u64, encode_only: bool) -> Result<usize, String> {
     Ok(total)
 }
 
+/// Decodes `bytes` N times whatever the outcome (hostile inputs may be
+/// rejected: their cost counts all the same).
+fn decode_any(bytes: &[u8], n: u64) -> Result<usize, String> {
+    let mut robot = layout::RobotData::default();
+    let mut total = 0;
+    for _ in 0..n {
+        total += usize::from(decode::<RobDataMessage>(black_box(bytes), &mut robot).is_ok());
+    }
+    Ok(total)
+}
+
+/// `--hostile`: decode cost of each hostile input and of the manual's
+/// message under callgrind.
+fn hostile(manual: &str) -> ExitCode {
+    let inputs = host_tests::qemu_bench::hostile();
+    let dir = std::env::temp_dir().join(format!("codec-bench-hostile-{}", std::process::id()));
+    if let Err(e) = std::fs::create_dir_all(&dir) {
+        eprintln!("cannot create {}: {e}", dir.display());
+        return ExitCode::FAILURE;
+    }
+    let mut files = vec![(
+        "manual RobData (reference)".to_string(),
+        manual.to_string(),
+        true,
+    )];
+    for (i, input) in inputs.iter().enumerate() {
+        let path = dir.join(format!("{i}.xml"));
+        if let Err(e) = std::fs::write(&path, input.with_id(1_234_567_890)) {
+            eprintln!("cannot write {}: {e}", path.display());
+            return ExitCode::FAILURE;
+        }
+        files.push((
+            input.name.clone(),
+            path.display().to_string(),
+            input.accepted,
+        ));
+    }
+    println!("decode cost per message under callgrind ((Ir(N=200) - Ir(N=100)) / 100), layout AnyDevice:");
+    println!(
+        "  {:<34} {:>6} {:>10} {:>8}  outcome",
+        "input", "bytes", "Ir/msg", "Ir/byte"
+    );
+    let mut reference = None;
+    let mut worst = (0.0f64, String::new());
+    for (name, file, accepted) in &files {
+        let bytes = std::fs::read(file).unwrap_or_default();
+        let outcome = {
+            let mut robot = layout::RobotData::default();
+            match decode::<RobDataMessage>(&bytes, &mut robot) {
+                Ok(_) => "accepted".to_string(),
+                Err(e) => format!("rejected: {:?} at byte {}", e.kind, e.offset),
+            }
+        };
+        if outcome.starts_with("accepted") != *accepted {
+            eprintln!(
+                "error: {name}: expected {}, got {outcome}",
+                if *accepted { "accepted" } else { "rejected" }
+            );
+            return ExitCode::FAILURE;
+        }
+        let ir = callgrind_ir(file, 100, "decode-any")
+            .and_then(|a| Ok((a, callgrind_ir(file, 200, "decode-any")?)));
+        let (a, b) = match ir {
+            Ok(v) => v,
+            Err(e) => {
+                eprintln!("{e}");
+                return ExitCode::FAILURE;
+            }
+        };
+        let per = b.saturating_sub(a) / 100;
+        let per_byte = per as f64 / bytes.len().max(1) as f64;
+        println!(
+            "  {name:<34} {:>6} {per:>10} {per_byte:>8.1}  {outcome}",
+            bytes.len()
+        );
+        match reference {
+            None => reference = Some(per_byte),
+            Some(_) if per_byte > worst.0 => worst = (per_byte, name.clone()),
+            Some(_) => {}
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    if let Some(r) = reference {
+        println!(
+            "  worst per byte: {:.1} ({}), {:.2}x the manual's message ({r:.1})",
+            worst.0,
+            worst.1,
+            worst.0 / r.max(1e-9)
+        );
+    }
+    ExitCode::SUCCESS
+}
+
 /// The floor under any decoder built on xmlparser: tokenizing the message
 /// and nothing else.
 fn tokenizer_only(bytes: &[u8], n: u64) -> Result<usize, String> {
@@ -135,12 +233,17 @@ fn callgrind_ir(file: &str, n: u64, only: &str) -> Result<u64, String> {
 }
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo codec-bench -- <robot-message.xml> <N> [--callgrind] [--only ours|baseline|tokenizer|decode|encode]");
+    eprintln!("usage: cargo codec-bench -- <robot-message.xml> <N> [--callgrind] [--only ours|baseline|tokenizer|decode|encode|decode-any]");
+    eprintln!("       cargo codec-bench -- --hostile   (the hostile corpus under callgrind)");
     ExitCode::from(2)
 }
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("--hostile") {
+        let manual = host_tests::shared_rri().join("examples/messages/RobData.xml");
+        return hostile(&manual.display().to_string());
+    }
     let (Some(file), Some(n)) = (
         args.first(),
         args.get(1).and_then(|n| n.parse::<u64>().ok()),
@@ -167,6 +270,7 @@ fn main() -> ExitCode {
             "tokenizer" => tokenizer_only(&bytes, n),
             "decode" => ours_half(&bytes, n, false),
             "encode" => ours_half(&bytes, n, true),
+            "decode-any" => decode_any(&bytes, n),
             _ => return usage(),
         };
         return match r {
