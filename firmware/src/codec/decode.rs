@@ -485,8 +485,9 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
     let mut id: Option<u32> = None;
     let mut ts: Option<Time> = None;
     let mut target = Target::None;
-    // Name of the open child element (depth 2), for the end-tag check.
-    let mut child: &str = "";
+    // Prefix and name of the open child element (depth 2), for the
+    // end-tag check.
+    let mut child: (&str, &str) = ("", "");
     let mut seen: u64 = 0;
     let mut c = Collected::new();
     let mut tally = Tally::default();
@@ -544,7 +545,7 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
                         }
                     }
                     1 => {
-                        child = name;
+                        child = (prefix.as_str(), name);
                         target = match (value_body, M::field_index(name.as_bytes())) {
                             (false, Some(i)) if prefix.is_empty() => {
                                 let bit = 1u64.checked_shl(i as u32).unwrap_or(0);
@@ -626,8 +627,12 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
                     ElementEnd::Open => false,
                     ElementEnd::Empty => true,
                     ElementEnd::Close(prefix, local) => {
-                        let open = if depth == 1 { M::WIRE_NAME } else { child };
-                        if !prefix.is_empty() || local.as_str() != open {
+                        let open = if depth == 1 {
+                            ("", M::WIRE_NAME)
+                        } else {
+                            child
+                        };
+                        if (prefix.as_str(), local.as_str()) != open {
                             return Err(err(K::MismatchedTag, at));
                         }
                         true
@@ -714,8 +719,13 @@ impl Extras {
 /// one (`<`, `</Ts_`, `<P_act X="1" `): no `>` outside quotes, so more bytes
 /// could have completed it. Error path only: linear in the tail.
 fn unfinished_tail(text: &str, from: usize) -> bool {
+    let tail = text.as_bytes().get(from..).unwrap_or(&[]);
+    if from == 0 && !tail.contains(&b'<') {
+        // Text without any markup (`hello robot`) is no cut message.
+        return false;
+    }
     let mut quote: Option<u8> = None;
-    for &b in text.as_bytes().get(from..).unwrap_or(&[]) {
+    for &b in tail {
         match (quote, b) {
             (None, b'"' | b'\'') => quote = Some(b),
             (Some(q), _) if q == b => quote = None,

@@ -45,7 +45,18 @@ pub struct BadReference {
 /// Longest reference we look at: `&#x10FFFF;` / `&#1114111;` are 10 bytes.
 const MAX_REFERENCE: usize = 10;
 
+/// XML 1.0's `Char`: what a character reference may name (not NUL, not
+/// the other C0 controls but tab, LF and CR, not U+FFFE/U+FFFF).
+fn is_xml_char(c: char) -> bool {
+    matches!(c, '\t' | '\n' | '\r' | '\u{20}'..='\u{D7FF}' | '\u{E000}'..='\u{FFFD}' | '\u{10000}'..)
+}
+
 fn reference(r: &[u8]) -> Option<char> {
+    let c = reference_any(r)?;
+    is_xml_char(c).then_some(c)
+}
+
+fn reference_any(r: &[u8]) -> Option<char> {
     match r {
         b"amp" => Some('&'),
         b"lt" => Some('<'),

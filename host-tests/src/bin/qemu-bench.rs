@@ -98,6 +98,7 @@ fn drive(
     device: &gsi_config::Device,
     cycles: u64,
     flood_us: u64,
+    paced: bool,
 ) -> Result<Driven, String> {
     let stop = Arc::new(AtomicBool::new(false));
     let flooded = Arc::new(AtomicU64::new(0));
@@ -122,6 +123,7 @@ fn drive(
     };
     let mut opts = RobotOptions::new(gsi.to_path_buf(), to);
     opts.cycles = cycles;
+    opts.pacing = paced;
     opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let start = board.lines();
     let result = run(&opts, device, &mut std::io::sink());
@@ -195,11 +197,18 @@ fn bench(args: &Args) -> Result<bool, String> {
         .collect();
 
     // 2. The simulator, every message measured.
+    // Lock-step: each message leaves when the previous one is answered.
+    // Under -icount the guest's clock is not the host's, and 4 ms host
+    // pacing delivered datagrams in bursts that QEMU's user networking and
+    // the emulated NIC's FIFO sometimes dropped (3 to 15 of 2,000 on this
+    // machine, before and after the hostile-world changes alike): a loss of
+    // the emulation, not of the firmware. What this run measures is the
+    // instructions per message; real-time behaviour is the flood run's.
     println!(
-        "== robot simulator: {} cycles every 4 ms (instructions counted)",
+        "== robot simulator: {} cycles, lock-step (each message after the previous reply; instructions counted)",
         args.cycles
     );
-    let sim = drive(&board, to, &gsi, &device, args.cycles, 0)?;
+    let sim = drive(&board, to, &gsi, &device, args.cycles, 0, false)?;
     let summary = sim.summary.clone();
     // The first answer waits for ARP through slirp (idle time in the
     // count): warm-up, not a cycle.
@@ -290,6 +299,7 @@ fn bench(args: &Args) -> Result<bool, String> {
         &device,
         args.cycles,
         args.flood_us,
+        true,
     )?;
     let flood_log = finish(flood_board, "under the flood")?;
     let flood_counters = last_counters(&flood_log);

@@ -1,0 +1,106 @@
+//! The cycle path as one MCU image, for the panic-freedom check
+//! (`cargo panic-check`, run by CI; host-tests/src/bin/panic-paths.rs).
+//!
+//! This image runs what every board runs per robot message and per poll —
+//! the engine's `on_message` (peer check, decode, Id accounting,
+//! supervision, the demo application, encode), its `poll`, the TCP framer
+//! and the stall guard — on inputs the optimizer cannot see (a datagram of
+//! any length and content from any source, any time), built with the
+//! firmware profile (opt-level "z", fat LTO): the code the boards run.
+//! Every panic path the optimizer could not remove is still in it as a
+//! call to a `core` panic entry; the check disassembles the image, finds
+//! each such call and the source line it comes from, and fails if any is
+//! in the firmware crate.
+//!
+//! It is never run: its `main` only has to exist.
+#![no_std]
+#![no_main]
+
+use core::hint::black_box;
+use cortex_m_rt::entry;
+use rri_firmware::demo::DemoApp;
+use rri_firmware::engine::{Clock, Endpoint, Engine, Instant, Outcome};
+use rri_firmware::layout::{self, DeviceEngine};
+use rri_firmware::sample::SampleCell;
+use rri_firmware::tcp::{Framer, StallGuard};
+
+/// Never reached when the check passes for the firmware's own code; the
+/// check (`cargo panic-check`) lists every call that could get here.
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    loop {
+        core::hint::spin_loop();
+    }
+}
+
+/// A clock the optimizer cannot predict.
+struct Opaque;
+
+impl Clock for Opaque {
+    fn now(&self) -> Instant {
+        Instant(black_box(0))
+    }
+}
+
+static SAMPLES: SampleCell<1> = SampleCell::new();
+
+/// A deliberate panic path (feature `panic-check-selftest`): CI builds it
+/// too and expects the check to find it, so the check is known to bite.
+#[cfg(feature = "panic-check-selftest")]
+fn selftest(bytes: &[u8]) -> u8 {
+    bytes[black_box(usize::MAX)]
+}
+
+#[cfg(not(feature = "panic-check-selftest"))]
+fn selftest(_: &[u8]) -> u8 {
+    0
+}
+
+#[entry]
+fn main() -> ! {
+    let mut engine: DeviceEngine = Engine::new(layout::ENGINE_CONFIG);
+    let Some((_, reader)) = SAMPLES.split() else {
+        loop {
+            core::hint::spin_loop();
+        }
+    };
+    let mut app = DemoApp::new(reader);
+    let clock = Opaque;
+    let mut datagram = [0u8; layout::MAX_RECEIVE_LEN + 1];
+    let mut out = [0u8; layout::MAX_SEND_LEN];
+    let mut framer = Framer::<{ layout::MAX_RECEIVE_LEN }>::new();
+    let mut guard = StallGuard::new(engine.config().timeout_ms, clock.now());
+    loop {
+        let input = black_box(&mut datagram);
+        let len = black_box(input.len());
+        let bytes = input.get(..len).unwrap_or(&[]);
+        let from = black_box(Endpoint::new([10, 0, 0, 1], 3002));
+        let outcome = engine.on_message(&mut app, &clock, from, bytes, clock.now(), &mut out);
+        if let Outcome::Reply { len, .. } = outcome {
+            black_box(out.get(..len));
+        }
+        black_box(engine.poll(&mut app, &clock, &mut out));
+        // TCP: the framer over any chunk, each message through the engine.
+        let mut rest = bytes;
+        let mut completed = false;
+        while !rest.is_empty() {
+            let Ok((used, message)) = framer.feed(rest) else {
+                engine.framing_error();
+                break;
+            };
+            rest = rest.get(used..).unwrap_or(&[]);
+            if let Some(message) = message {
+                completed = true;
+                let received = clock.now();
+                black_box(engine.on_message(&mut app, &clock, from, message, received, &mut out));
+            }
+        }
+        guard.received(clock.now(), completed, framer.pending());
+        if guard.check(clock.now(), black_box(false)).is_some() {
+            engine.stalled();
+            engine.peer_closed();
+        }
+        black_box(engine.stats());
+        black_box(selftest(bytes));
+    }
+}

@@ -1,0 +1,267 @@
+//! `cargo panic-check [-- --selftest]`: panic-freedom of the firmware's
+//! cycle path, from the machine code the MCU would run.
+//!
+//! Builds `firmware/src/bin/panic-check.rs` (the whole cycle path on
+//! inputs the optimizer cannot see) for the MCU with the firmware profile,
+//! disassembles it with `llvm-objdump` (rustup's `llvm-tools`), and finds
+//! every call that code outside the standard library makes to a panic
+//! entry point (`core::panicking::*`, failed slice indexing, `unwrap` on
+//! `None`/`Err`, …) or to a standard-library function that may reach one.
+//! Each is attributed to the source line the debug info gives for it (the
+//! innermost frame outside the standard library) and listed by crate.
+//!
+//! Fails when any remaining panic path lies in the firmware crate
+//! (`firmware/src/…`). Paths inside dependencies are listed, not failed:
+//! they are the dependency's own internal checks (see the README).
+//! `--selftest` builds the image with a deliberate out-of-bounds index
+//! (feature `panic-check-selftest`) and succeeds only if it is found.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+const PANIC_ENTRIES: [&str; 9] = [
+    "core::panicking::",
+    "core::slice::index::slice_index_fail",
+    "core::slice::index::slice_end_index_len_fail",
+    "core::slice::index::slice_start_index_len_fail",
+    "core::option::unwrap_failed",
+    "core::option::expect_failed",
+    "core::result::unwrap_failed",
+    "core::str::slice_error_fail",
+    "core::slice::copy_from_slice_impl::len_mismatch_fail",
+];
+
+/// One call to a panic entry point.
+#[derive(Debug)]
+struct Site {
+    function: String,
+    entry: String,
+    /// `file:line` of the innermost frame outside the standard library.
+    source: String,
+}
+
+fn llvm_objdump() -> Result<PathBuf, String> {
+    let out = Command::new("rustc")
+        .args(["--print", "sysroot"])
+        .output()
+        .map_err(|e| format!("cannot run rustc: {e}"))?;
+    let sysroot = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    let host = Command::new("rustc")
+        .arg("-vV")
+        .output()
+        .map_err(|e| format!("cannot run rustc: {e}"))?;
+    let host = String::from_utf8_lossy(&host.stdout)
+        .lines()
+        .find_map(|l| l.strip_prefix("host: ").map(str::to_string))
+        .ok_or("no host triple in `rustc -vV`")?;
+    let path = Path::new(&sysroot)
+        .join("lib/rustlib")
+        .join(host)
+        .join("bin/llvm-objdump");
+    if path.exists() {
+        Ok(path)
+    } else {
+        Err(format!(
+            "{} is missing: install it with `rustup component add llvm-tools`",
+            path.display()
+        ))
+    }
+}
+
+fn build(selftest: bool) -> Result<PathBuf, String> {
+    let ws = host_tests::workspace();
+    let features = if selftest {
+        "panic-check,panic-check-selftest"
+    } else {
+        "panic-check"
+    };
+    let target_dir = ws.join("target/panic-check");
+    let status = Command::new(env!("CARGO"))
+        .current_dir(&ws)
+        .args([
+            "build",
+            "-q",
+            "-p",
+            "rri-firmware",
+            "--bin",
+            "panic-check",
+            "--profile",
+            "firmware",
+            "--target",
+            "thumbv7em-none-eabihf",
+            "--features",
+            features,
+        ])
+        .arg("--target-dir")
+        .arg(&target_dir)
+        .status()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !status.success() {
+        return Err("building the panic-check image failed".into());
+    }
+    Ok(target_dir.join("thumbv7em-none-eabihf/firmware/panic-check"))
+}
+
+/// Whether a function belongs to the standard library (its panic calls
+/// are attributed to the caller outside it).
+fn is_core(function: &str) -> bool {
+    [
+        "core::",
+        "<core::",
+        "<&",
+        "<[",
+        "<str",
+        "<u",
+        "<i",
+        "<f32",
+        "<f64",
+        "compiler_builtins::",
+    ]
+    .iter()
+    .any(|p| function.starts_with(p))
+        || function.contains("rust_begin_unwind")
+}
+
+fn sites(objdump: &Path, elf: &Path) -> Result<Vec<Site>, String> {
+    let out = Command::new(objdump)
+        .args(["-d", "-l", "--demangle"])
+        .arg(elf)
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", objdump.display()))?;
+    if !out.status.success() {
+        return Err(String::from_utf8_lossy(&out.stderr).into_owned());
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    // Every call (and tail call): caller, callee, source line at the call.
+    let mut calls: Vec<(String, String, String)> = Vec::new();
+    let mut function = String::new();
+    let mut source = String::new();
+    for line in text.lines() {
+        if let Some(name) = line
+            .strip_suffix(">:")
+            .and_then(|l| l.split_once(" <"))
+            .map(|(_, n)| n)
+        {
+            function = name.to_string();
+            source.clear();
+        } else if let Some(loc) = line.strip_prefix("; ") {
+            // `; file:line` (function-name lines end in `():`). Innermost
+            // frames come last; keep the last outside the standard library.
+            let is_location = loc
+                .rsplit_once(':')
+                .is_some_and(|(_, n)| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()));
+            if is_location && !loc.starts_with("/rustc/") {
+                source = loc.trim().to_string();
+            }
+        } else if let Some(target) = line.split(" <").nth(1).and_then(|t| t.rsplit_once('>')) {
+            let is_call = ["\tbl\t", "\tb.w\t", "\tb\t", "\tblx\t"]
+                .iter()
+                .any(|m| line.contains(m));
+            let callee = target.0.split('+').next().unwrap_or(target.0);
+            if is_call && callee != function {
+                calls.push((function.clone(), callee.to_string(), source.clone()));
+            }
+        }
+    }
+    // Standard-library functions that may reach a panic entry.
+    let mut may_panic: std::collections::HashSet<String> = calls
+        .iter()
+        .map(|c| c.1.clone())
+        .filter(|c| PANIC_ENTRIES.iter().any(|p| c.starts_with(p)))
+        .collect();
+    loop {
+        let more: Vec<String> = calls
+            .iter()
+            .filter(|(caller, callee, _)| {
+                is_core(caller) && may_panic.contains(callee) && !may_panic.contains(caller)
+            })
+            .map(|c| c.0.clone())
+            .collect();
+        if more.is_empty() {
+            break;
+        }
+        may_panic.extend(more);
+    }
+    Ok(calls
+        .into_iter()
+        .filter(|(caller, callee, _)| !is_core(caller) && may_panic.contains(callee))
+        .map(|(function, entry, source)| Site {
+            function,
+            entry,
+            source,
+        })
+        .collect())
+}
+
+/// `firmware`, a dependency's name, or `unknown`.
+fn owner(source: &str) -> String {
+    if source.contains("/firmware/src/") || source.starts_with("firmware/src/") {
+        "firmware".into()
+    } else if let Some(rest) = source.split("crates.io/").nth(1) {
+        rest.split('/').next().unwrap_or("crates.io").to_string()
+    } else if source.is_empty() {
+        "unknown".into()
+    } else {
+        source.split('/').next().unwrap_or("unknown").to_string()
+    }
+}
+
+fn run(selftest: bool) -> Result<bool, String> {
+    let objdump = llvm_objdump()?;
+    let elf = build(selftest)?;
+    let found = sites(&objdump, &elf)?;
+    let mut by_owner: std::collections::BTreeMap<String, Vec<&Site>> = Default::default();
+    for s in &found {
+        by_owner.entry(owner(&s.source)).or_default().push(s);
+    }
+    println!(
+        "panic paths in the cycle-path image ({}): {}",
+        elf.display(),
+        found.len()
+    );
+    for (who, list) in &by_owner {
+        println!("  {who}: {}", list.len());
+        for s in list {
+            // `…::contains::h0123…` → `str>::contains`: the name, not the hash.
+            let name = match s.entry.rsplit_once("::h") {
+                Some((n, hash)) if hash.len() == 16 => n,
+                _ => s.entry.as_str(),
+            };
+            let entry = name.rsplit("::").take(2).collect::<Vec<_>>();
+            let entry = entry.iter().rev().cloned().collect::<Vec<_>>().join("::");
+            let f: String = s.function.chars().take(60).collect();
+            println!("    {entry:<34} {:<55} in {f}", s.source);
+        }
+    }
+    let ours = by_owner.get("firmware").map_or(0, Vec::len);
+    if selftest {
+        let caught = by_owner
+            .get("firmware")
+            .is_some_and(|l| l.iter().any(|s| s.source.contains("panic-check.rs")));
+        if caught {
+            println!("selftest: the deliberate panic path was found");
+        } else {
+            println!("selftest FAILED: the deliberate panic path was not found");
+        }
+        return Ok(caught);
+    }
+    if ours > 0 {
+        println!("FAIL: {ours} panic path(s) in the firmware crate");
+        Ok(false)
+    } else {
+        println!("ok: no panic path in the firmware crate's cycle path");
+        Ok(true)
+    }
+}
+
+fn main() -> ExitCode {
+    let selftest = std::env::args().any(|a| a == "--selftest");
+    match run(selftest) {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
