@@ -246,6 +246,17 @@ async fn write_all(socket: &mut TcpSocket<'_>, mut bytes: &[u8]) -> bool {
     true
 }
 
+/// Writes a reply within `limit`; `false` when the connection broke or the
+/// peer stopped reading for that long (its window and our send buffer
+/// full): a send error, and the connection is closed, so a controller that
+/// stops reading cannot block the device.
+async fn write_reply(socket: &mut TcpSocket<'_>, bytes: &[u8], limit: Duration) -> bool {
+    matches!(
+        embassy_time::with_timeout(limit, write_all(socket, bytes)).await,
+        Ok(true)
+    )
+}
+
 /// Puts a closed socket in listening mode without waiting for a
 /// connection (the first poll of `accept` listens); `false` when the port
 /// cannot be listened on.
@@ -328,6 +339,7 @@ where
         engine.listening();
         framer.reset();
         let mut guard = StallGuard::new(engine.config().timeout_ms, clock.now());
+        let write_limit = Duration::from_millis(u64::from(engine.config().timeout_ms.max(1)));
         'connection: loop {
             match select(served.read(chunk), Timer::after(POLL_INTERVAL)).await {
                 Either::First(Ok(0)) | Either::First(Err(_)) => break 'connection,
@@ -348,7 +360,8 @@ where
                         let outcome = engine.on_message(app, clock, from, message, received, reply);
                         let after = monitor.count();
                         if let Outcome::Reply { len, .. } = outcome {
-                            if !write_all(served, reply.get(..len).unwrap_or(&[])).await {
+                            let reply = reply.get(..len).unwrap_or(&[]);
+                            if !write_reply(served, reply, write_limit).await {
                                 engine.send_failed();
                                 break 'connection;
                             }
@@ -359,7 +372,8 @@ where
                 }
                 Either::Second(()) => {
                     if let Some((_, len)) = engine.poll(app, clock, reply) {
-                        if !write_all(served, reply.get(..len).unwrap_or(&[])).await {
+                        let reply = reply.get(..len).unwrap_or(&[]);
+                        if !write_reply(served, reply, write_limit).await {
                             engine.send_failed();
                             break 'connection;
                         }

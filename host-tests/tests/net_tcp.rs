@@ -272,3 +272,39 @@ fn a_pause_with_nobody_waiting_keeps_the_connection_m10() {
     let s = engine.stats();
     assert_eq!((s.stalled_closed, s.closed, s.answered), (0, 0, 3));
 }
+
+/// A controller that keeps sending but stops reading: once its window and
+/// the device's send buffer are full, a reply cannot be written for
+/// `TimeOut`; that is a counted send error and closes the connection, and
+/// the next connection is served (the device is never blocked on it).
+#[test]
+fn a_peer_that_stops_reading_is_closed_after_timeout() {
+    let mut engine = DeviceEngine::new(config());
+    let served = &Cell::new(None);
+    let done = with_tcp_device(
+        &mut engine,
+        &mut (),
+        move |stack| async move {
+            let (mut rx1, mut tx1) = ([0u8; 1024], [0u8; 8192]);
+            let (mut rx2, mut tx2) = ([0u8; 4096], [0u8; 4096]);
+            let mut deaf = Robot::connect(stack, &mut rx1, &mut tx1).await;
+            let burst: String = (1..=60).map(message).collect();
+            let _ = deaf.write(burst.as_bytes()).await;
+            Timer::after(Duration::from_millis(20)).await;
+            let start = embassy_time::Instant::now();
+            let mut robot = Robot::connect(stack, &mut rx2, &mut tx2).await;
+            assert!(robot.write(message(100).as_bytes()).await);
+            assert_eq!(robot.reply().await, Some(100));
+            served.set(Some(start.elapsed().as_millis()));
+        },
+        100_000,
+    );
+    assert!(done, "the next connection was served");
+    let after = served.get().expect("served");
+    assert!(
+        after <= 2 * u64::from(TIMEOUT_MS) + 10,
+        "served after {after} ms"
+    );
+    let s = engine.stats();
+    assert!(s.send_errors >= 1, "{s:?}");
+}
