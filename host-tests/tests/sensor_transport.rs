@@ -5,8 +5,10 @@
 //! happens on the wire ends at most one connection, never the sensor.
 
 use host_tests::sensor::{Background, SensorReport};
+use rri_firmware::codec::decode;
 use rri_firmware::engine::Config;
 use rri_firmware::layout;
+use rri_firmware::schema::Message;
 use rri_firmware::tcp::Framer;
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream, UdpSocket};
@@ -46,12 +48,10 @@ fn reply_id(s: &mut TcpStream) -> Option<u32> {
         let mut id = None;
         framer
             .push(&chunk[..n], |m| {
-                let text = String::from_utf8_lossy(m);
-                id = text
-                    .split("Id=\"")
-                    .nth(1)
-                    .and_then(|r| r.split('"').next())
-                    .and_then(|v| v.parse().ok());
+                let mut data = <layout::ReplyMessage as Message>::Data::default();
+                id = decode::<layout::ReplyMessage>(m, &mut data)
+                    .ok()
+                    .map(|d| d.id);
             })
             .expect("replies fit");
         if id.is_some() {
@@ -186,7 +186,9 @@ fn udp_keeps_answering_whatever_the_sends_do() {
         .expect("send");
     let mut buf = [0u8; 4096];
     let n = robot.recv(&mut buf).expect("answered");
-    assert!(String::from_utf8_lossy(&buf[..n]).contains("Id=\"50\""));
+    let mut data = <layout::ReplyMessage as Message>::Data::default();
+    let reply = decode::<layout::ReplyMessage>(&buf[..n], &mut data).expect("a reply");
+    assert_eq!(reply.id, 50, "M8");
     let r = stop(sensor);
     assert_eq!(r.stats.answered, 4);
 }
