@@ -88,6 +88,16 @@ impl<'a> Robot<'a> {
         }
     }
 
+    /// Sends message `id` and returns the Id of the reply (M8), `None`
+    /// once the device has closed.
+    async fn ask(&mut self, id: u32) -> Option<u32> {
+        assert!(
+            self.write(message(id).as_bytes()).await,
+            "message {id} written"
+        );
+        self.reply().await
+    }
+
     /// Waits until the device closes (reads whatever still comes).
     async fn closed(&mut self) {
         let mut chunk = [0u8; 1024];
@@ -97,6 +107,15 @@ impl<'a> Robot<'a> {
             }
         }
     }
+}
+
+/// Milliseconds (mock time) from now until a new connection has message
+/// `id` answered: how long the controller waits to be served.
+async fn time_to_serve(stack: Stack<'_>, rx: &mut [u8], tx: &mut [u8], id: u32) -> u64 {
+    let start = embassy_time::Instant::now();
+    let mut robot = Robot::connect(stack, rx, tx).await;
+    assert_eq!(robot.ask(id).await, Some(id));
+    start.elapsed().as_millis()
 }
 
 /// M10: 200 messages, each written in two pieces, all answered with their
@@ -159,8 +178,7 @@ fn a_reset_while_replies_are_written_ends_only_that_connection() {
             }
             Timer::after(Duration::from_millis(5)).await;
             let mut robot = Robot::connect(stack, &mut rx, &mut tx).await;
-            assert!(robot.write(message(41).as_bytes()).await);
-            second.set(robot.reply().await);
+            second.set(robot.ask(41).await);
         },
         100_000,
     );
@@ -188,11 +206,7 @@ fn an_incomplete_message_is_closed_after_timeout_and_the_waiting_controller_serv
             let mut stalled = Robot::connect(stack, &mut rx1, &mut tx1).await;
             let msg = message(1);
             assert!(stalled.write(&msg.as_bytes()[..msg.len() / 2]).await);
-            let start = embassy_time::Instant::now();
-            let mut robot = Robot::connect(stack, &mut rx2, &mut tx2).await;
-            assert!(robot.write(message(7).as_bytes()).await);
-            assert_eq!(robot.reply().await, Some(7));
-            served_after.set(Some(start.elapsed().as_millis()));
+            served_after.set(Some(time_to_serve(stack, &mut rx2, &mut tx2, 7).await));
             stalled.closed().await;
             stalled_closed.set(true);
         },
@@ -223,13 +237,8 @@ fn a_silent_connection_gives_way_to_a_waiting_one_after_timeout_m10() {
             let (mut rx1, mut tx1) = ([0u8; 4096], [0u8; 4096]);
             let (mut rx2, mut tx2) = ([0u8; 4096], [0u8; 4096]);
             let mut old = Robot::connect(stack, &mut rx1, &mut tx1).await;
-            assert!(old.write(message(1).as_bytes()).await);
-            assert_eq!(old.reply().await, Some(1));
-            let start = embassy_time::Instant::now();
-            let mut robot = Robot::connect(stack, &mut rx2, &mut tx2).await;
-            assert!(robot.write(message(2).as_bytes()).await);
-            assert_eq!(robot.reply().await, Some(2));
-            served_after.set(Some(start.elapsed().as_millis()));
+            assert_eq!(old.ask(1).await, Some(1));
+            served_after.set(Some(time_to_serve(stack, &mut rx2, &mut tx2, 2).await));
         },
         100_000,
     );
@@ -259,8 +268,7 @@ fn a_pause_with_nobody_waiting_keeps_the_connection_m10() {
             let (mut rx, mut tx) = ([0u8; 4096], [0u8; 4096]);
             let mut robot = Robot::connect(stack, &mut rx, &mut tx).await;
             for id in 1..=3 {
-                assert!(robot.write(message(id).as_bytes()).await);
-                assert_eq!(robot.reply().await, Some(id));
+                assert_eq!(robot.ask(id).await, Some(id));
                 answered.set(answered.get() + 1);
                 Timer::after(Duration::from_millis(5 * u64::from(TIMEOUT_MS))).await;
             }
@@ -291,11 +299,7 @@ fn a_peer_that_stops_reading_is_closed_after_timeout() {
             let burst: String = (1..=60).map(message).collect();
             let _ = deaf.write(burst.as_bytes()).await;
             Timer::after(Duration::from_millis(20)).await;
-            let start = embassy_time::Instant::now();
-            let mut robot = Robot::connect(stack, &mut rx2, &mut tx2).await;
-            assert!(robot.write(message(100).as_bytes()).await);
-            assert_eq!(robot.reply().await, Some(100));
-            served.set(Some(start.elapsed().as_millis()));
+            served.set(Some(time_to_serve(stack, &mut rx2, &mut tx2, 100).await));
         },
         100_000,
     );

@@ -60,6 +60,21 @@ fn reply_id(s: &mut TcpStream) -> Option<u32> {
     }
 }
 
+/// Sends message `id` on `s`; the Id of its reply.
+fn ask(s: &mut TcpStream, id: u32) -> Option<u32> {
+    s.write_all(message(id).as_bytes())
+        .expect("message written");
+    reply_id(s)
+}
+
+/// How long a new connection waits for message `id` to be answered.
+fn time_to_serve(addr: SocketAddr, id: u32) -> Duration {
+    let start = Instant::now();
+    let mut s = connect(addr);
+    assert_eq!(ask(&mut s, id), Some(id));
+    start.elapsed()
+}
+
 fn stop(sensor: Background) -> SensorReport {
     sensor.stop().expect("the sensor was still running")
 }
@@ -76,8 +91,11 @@ fn a_reset_while_replies_are_written_ends_only_that_connection() {
         // Closing with replies unread makes the kernel send RST.
         drop(s);
         let mut s = connect(sensor.addr);
-        s.write_all(message(1000 + round).as_bytes()).expect("next");
-        assert_eq!(reply_id(&mut s), Some(1000 + round), "round {round}");
+        assert_eq!(
+            ask(&mut s, 1000 + round),
+            Some(1000 + round),
+            "round {round}"
+        );
     }
     let r = stop(sensor);
     assert!(r.stats.closed >= 6, "{:?}", r.stats);
@@ -97,11 +115,7 @@ fn a_stalled_connection_is_closed_after_timeout_and_the_next_served() {
         .write_all(&m.as_bytes()[..m.len() / 2])
         .expect("half a message");
     std::thread::sleep(Duration::from_millis(20));
-    let start = Instant::now();
-    let mut s = connect(sensor.addr);
-    s.write_all(message(2).as_bytes()).expect("message");
-    assert_eq!(reply_id(&mut s), Some(2));
-    let waited = start.elapsed();
+    let waited = time_to_serve(sensor.addr, 2);
     assert!(
         waited <= Duration::from_millis(u64::from(TIMEOUT_MS) + 150),
         "served after {waited:?}"
@@ -149,15 +163,14 @@ fn a_pause_keeps_the_connection_until_another_waits() {
     let sensor = Background::start(true, config()).expect("sensor");
     let mut s = connect(sensor.addr);
     for id in 1..=2 {
-        s.write_all(message(id).as_bytes()).expect("message");
-        assert_eq!(reply_id(&mut s), Some(id));
+        assert_eq!(ask(&mut s, id), Some(id));
         std::thread::sleep(Duration::from_millis(3 * u64::from(TIMEOUT_MS)));
     }
-    let start = Instant::now();
-    let mut next = connect(sensor.addr);
-    next.write_all(message(10).as_bytes()).expect("message");
-    assert_eq!(reply_id(&mut next), Some(10));
-    assert!(start.elapsed() <= Duration::from_millis(u64::from(TIMEOUT_MS) + 150));
+    let waited = time_to_serve(sensor.addr, 10);
+    assert!(
+        waited <= Duration::from_millis(u64::from(TIMEOUT_MS) + 150),
+        "served after {waited:?}"
+    );
     let r = stop(sensor);
     assert_eq!((r.stats.stalled_closed, r.stats.answered), (1, 3));
 }
