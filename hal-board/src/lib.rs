@@ -19,6 +19,10 @@
 pub mod lan9118;
 pub mod mac;
 
+/// Stack painting and its high-water mark (every board).
+#[cfg(all(any(feature = "mps2-an500", feature = "stm32"), target_os = "none"))]
+pub mod stack;
+
 #[cfg(all(feature = "mps2-an500", target_os = "none"))]
 pub mod mps2_an500;
 

@@ -66,6 +66,9 @@ macro_rules! spawn {
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
+    // First, before any interrupt can use the stack: the high-water mark
+    // housekeeping logs is measured against this paint.
+    hal_board::stack::paint();
     let b = match board::init() {
         Ok(b) => b,
         Err(e) => defmt::panic!("{}: the network chip did not start: {}", board::NAME, e),
@@ -149,6 +152,10 @@ async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, 1>) -> ! {
     let mut app = DemoApp::new(reader);
     let mut monitor = Publisher { heartbeat: 0 };
     stack.wait_config_up().await;
+    // Start-up is over (the network stack is built: its construction is the
+    // deepest the stack goes, see hal_board::stack); from here the cycle's
+    // own depth is measured.
+    hal_board::stack::repaint();
     if TCP {
         static BUFFERS: ConstStaticCell<
             net::TcpBuffers<TCP_SOCKET, { layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>,
@@ -249,6 +256,7 @@ async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Watchdog) -> !
     // From UNDEFINED, so the first state the cycle reaches is logged too.
     let mut last = Snapshot::default();
     let mut tick: u32 = 0;
+    let mut stack_used = 0;
     loop {
         ticker.next().await;
         tick = tick.wrapping_add(1);
@@ -282,6 +290,22 @@ async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Watchdog) -> !
             }
         }
         if tick.is_multiple_of(10) {
+            // The deepest the one stack (thread mode and every interrupt
+            // on top) has been; logged when it grows (qemu-bench gates on
+            // the margin).
+            let stack = hal_board::stack::high_water();
+            if stack.running > stack_used {
+                stack_used = stack.running;
+                defmt::info!(
+                    "stack: boot {=usize} running {=usize} of {=usize} bytes, {=usize}% margin",
+                    stack.boot,
+                    stack.running,
+                    stack.size,
+                    stack.margin_percent()
+                );
+            }
+            // After the stack line: a reader that sees this line has seen
+            // the latest stack figure.
             log_counters(&now);
         }
         last = now;

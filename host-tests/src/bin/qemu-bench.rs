@@ -157,6 +157,44 @@ fn last_counters(log: &[String]) -> String {
         .unwrap_or_default()
 }
 
+/// Under this much stack margin the bench fails (the rule).
+const MIN_STACK_MARGIN_PERCENT: u64 = 25;
+
+/// The device's stack use in bytes: (start-up, running, budget), from its
+/// last `stack: boot B running R of S bytes` line (logged once a second
+/// when the high-water mark grew).
+fn last_stack(log: &[String]) -> Option<(u64, u64, u64)> {
+    log.iter().rev().find_map(|l| {
+        let (_, rest) = l.split_once("] stack: ")?;
+        let w: Vec<&str> = rest.split_whitespace().collect();
+        match w.as_slice() {
+            ["boot", b, "running", r, "of", s, ..] => {
+                Some((b.parse().ok()?, r.parse().ok()?, s.parse().ok()?))
+            }
+            _ => None,
+        }
+    })
+}
+
+/// Waits (up to 3 s) for a stack line newer than everything the bench did.
+fn wait_for_stack(board: &Qemu) -> Result<(u64, u64, u64), String> {
+    let start = board.lines();
+    let end = Instant::now() + Duration::from_secs(3);
+    loop {
+        let seen = board.since(start);
+        // A new line appears only when the mark grew; the last one before
+        // is as good once a counter line shows a check has run since.
+        if seen.iter().any(|l| l.contains("] counters: ")) {
+            return last_stack(&board.since(0))
+                .ok_or_else(|| "the device logged no stack line".to_string());
+        }
+        if Instant::now() > end {
+            return Err("no counter line from the device within 3 s".into());
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 fn records(lines: &[String]) -> Vec<Record> {
     lines.iter().filter_map(|l| Record::parse(l)).collect()
 }
@@ -269,6 +307,8 @@ fn bench(args: &Args) -> Result<bool, String> {
     for input in &hostile {
         hostile_rows.push((input.clone(), measure(input)?));
     }
+    // The stack's high-water mark reaches the log within a second.
+    let stack = wait_for_stack(&board)?;
     let log = finish(board, "during the bench")?;
     let counters = last_counters(&log);
 
@@ -444,6 +484,12 @@ fn bench(args: &Args) -> Result<bool, String> {
         "  worst {hostile_max} instructions ({:.0} µs @216 MHz; budget 216,000 = a quarter cycle)",
         hostile_max as f64 / 216.0
     );
+    let (stack_boot, stack_running, stack_size) = stack;
+    let stack_used = stack_boot.max(stack_running);
+    let stack_margin = (stack_size - stack_used.min(stack_size)) * 100 / stack_size.max(1);
+    println!(
+        "\n== stack (painted; thread mode and every interrupt share the one main stack)\n  start-up {stack_boot} bytes (building the network stack), running {stack_running} bytes (after the bench and the hostile inputs), of a {stack_size}-byte budget: {stack_margin}% margin (fails under {MIN_STACK_MARGIN_PERCENT}%)"
+    );
     println!("\nQEMU counts instructions, not cycles: no caches, flash wait states, bus contention or Ethernet DMA are modelled; µs figures assume one instruction per cycle.");
 
     let gated = Gated {
@@ -465,6 +511,7 @@ fn bench(args: &Args) -> Result<bool, String> {
         "full": full,
         "hostile_max": hostile_max,
         "hostile": hostile_json,
+        "stack": {"boot": stack_boot, "running": stack_running, "budget": stack_size, "margin_percent": stack_margin},
         "baseline_compute_median": baseline_median,
         "codec": codec.iter().map(|(n, b, o, t, base)| json!({"message": n, "bytes": b,
             "ours": u64::from(*o) * INSTRUCTIONS_PER_COUNT, "tokenizer": u64::from(*t) * INSTRUCTIONS_PER_COUNT,
@@ -507,6 +554,10 @@ fn bench(args: &Args) -> Result<bool, String> {
     let mut ok = true;
     if missed > 0 {
         println!("FAIL: {missed} replies missed, late or wrong");
+        ok = false;
+    }
+    if stack_margin < MIN_STACK_MARGIN_PERCENT {
+        println!("FAIL: stack margin {stack_margin}% is under {MIN_STACK_MARGIN_PERCENT}%");
         ok = false;
     }
     match std::fs::read_to_string(&baseline_path) {
