@@ -96,12 +96,13 @@ pub fn stats_line(s: &Stats) -> String {
         0.0
     };
     format!(
-        "received {} answered {} periodic {} | dropped: foreign {} invalid-source {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} | timeouts {} max-lost {} | latency us min {} mean {:.0} max {}",
+        "received {} answered {} periodic {} | dropped: foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} | timeouts {} max-lost {} | latency us min {} mean {:.0} max {}",
         s.received,
         s.answered,
         s.periodic_sent,
         s.dropped_foreign,
         s.dropped_invalid_source,
+        s.dropped_throttled,
         s.dropped_decode,
         s.send_errors,
         s.stalled_closed,

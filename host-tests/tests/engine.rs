@@ -5,7 +5,7 @@ use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMes
 use rri_firmware::codec::DecodeErrorKind;
 use rri_firmware::engine::{
     Application, Clock, Config, CycleInfo, DropReason, Endpoint, Engine, ErrorCode, Instant,
-    Outcome, Pinned, SensorState,
+    Outcome, Pinned, SensorState, STRANGER_INTERVAL_MS,
 };
 use rri_firmware::tcp::{Framer, FramingError};
 use std::cell::Cell;
@@ -609,4 +609,65 @@ fn m10_peer_close_moves_to_closed_and_framing_errors_are_counted() {
     assert_eq!((s.framing_errors, s.closed), (1, 1));
     rig.engine.listening(); // a new connection
     assert_eq!(rig.engine.state(), SensorState::Connected);
+}
+
+/// Hostile world, floods (peer rule, S4): a flood from a second port of the
+/// controller's address was decoded in full, datagram after datagram, and
+/// a flood of the costliest rejected inputs at ten times the cycle rate
+/// starved the controller on the QEMU board (`cargo flood`: 356 of 2,000
+/// answered). Once a peer is locked, other sources are decoded at most
+/// once per robot cycle; a controller that reconnected still takes over.
+#[test]
+fn a_flood_from_another_port_costs_at_most_one_decode_per_cycle() {
+    let mut rig = Rig::new(config());
+    rig.send(ROBOT, 1, 0);
+    let second = Endpoint::new(ROBOT.ip, ROBOT.port + 1);
+    // 100 garbage datagrams within one cycle: one decoded, 99 throttled.
+    for i in 0..100u64 {
+        let at = 1 + i * (STRANGER_INTERVAL_MS - 1) / 100;
+        let r = rig.raw(second, b"<RobData Id=\"x\"/>", at);
+        assert!(matches!(r, Outcome::Dropped(_)), "{r:?}");
+    }
+    let s = rig.engine.stats();
+    assert_eq!((s.dropped_decode, s.dropped_throttled), (1, 99));
+    // The controller is answered all along, with its own Id sequence.
+    assert!(matches!(rig.send(ROBOT, 2, 4), Outcome::Reply { to, .. } if to == ROBOT));
+    // A foreign address is dropped before this (not counted as throttled).
+    assert_eq!(
+        rig.send(OTHER, 9, 5),
+        Outcome::Dropped(DropReason::ForeignSource)
+    );
+    // One cycle after the last stranger let through, the second port's
+    // valid message is decoded and takes over (a reconnecting controller).
+    let after = 1 + STRANGER_INTERVAL_MS;
+    assert!(matches!(rig.send(second, 50, after), Outcome::Reply { to, .. } if to == second));
+    // Now the old port is the stranger.
+    assert_eq!(
+        rig.send(ROBOT, 3, after + 1),
+        Outcome::Dropped(DropReason::Throttled)
+    );
+    let s = rig.engine.stats();
+    assert_eq!(
+        (s.port_takeovers, s.dropped_throttled, s.dropped_foreign),
+        (1, 100, 1)
+    );
+    assert_eq!(
+        s.received,
+        s.answered + s.dropped_decode + s.dropped_throttled + s.dropped_foreign
+    );
+}
+
+/// Before any peer there is no cycle to protect: nothing is throttled.
+#[test]
+fn nothing_is_throttled_before_a_peer_is_locked() {
+    let mut rig = Rig::new(config());
+    for i in 0..10u16 {
+        let from = Endpoint::new(ROBOT.ip, 40_000 + i);
+        assert_eq!(
+            rig.raw(from, b"garbage", 0),
+            Outcome::Dropped(DropReason::Decode(DecodeErrorKind::Malformed))
+        );
+    }
+    assert!(matches!(rig.send(ROBOT, 1, 0), Outcome::Reply { .. }));
+    assert_eq!(rig.engine.stats().dropped_throttled, 0);
 }

@@ -326,11 +326,12 @@ fn state_led(state: SensorState, tick: u32) -> bool {
 fn log_counters(s: &Snapshot) {
     let st = &s.stats;
     defmt::info!(
-        "counters: received {} answered {} dropped foreign {} invalid-source {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {}",
+        "counters: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {}",
         st.received,
         st.answered,
         st.dropped_foreign,
         st.dropped_invalid_source,
+        st.dropped_throttled,
         st.dropped_decode,
         st.send_errors,
         st.stalled_closed,

@@ -97,7 +97,20 @@ pub struct Engine<Rx: MessageCodec, Tx: MessageCodec> {
     robot_ts: Option<Time>,
     next_send: Option<Instant>,
     own_id: u32,
+    /// When a source other than the peer was last let through to the
+    /// decoder ([`STRANGER_INTERVAL_MS`]).
+    stranger_at: Option<Instant>,
 }
+
+/// Once a peer is locked, a message from any other admitted source (a
+/// second port of the peer's address, or a new address after `TimeOut`) is
+/// decoded at most once per this many ms; the others are dropped
+/// ([`DropReason::Throttled`]) before decoding. Such a message may be a
+/// controller that reconnected, and one of them is enough to take over;
+/// a flood of them would otherwise cost a whole decode each (up to
+/// `MAX_RECEIVE_LEN` bytes of the costliest input) and starve the peer's
+/// cycle. One robot cycle: at most one stranger's decode per cycle.
+pub const STRANGER_INTERVAL_MS: u64 = 4;
 
 impl<Rx, Tx> Engine<Rx, Tx>
 where
@@ -121,6 +134,7 @@ where
             robot_ts: None,
             next_send: None,
             own_id: 0,
+            stranger_at: None,
         }
     }
 
@@ -244,6 +258,16 @@ where
         }
         if self.peers.admit(from, received) == Admit::Foreign {
             return Err(DropReason::ForeignSource);
+        }
+        if self.peers.peer().is_some_and(|peer| peer != from) {
+            let interval_us = STRANGER_INTERVAL_MS * 1000;
+            if self
+                .stranger_at
+                .is_some_and(|t| received.micros_since(t) < interval_us)
+            {
+                return Err(DropReason::Throttled);
+            }
+            self.stranger_at = Some(received);
         }
         self.work.clone_from(&self.robot);
         let decoded =

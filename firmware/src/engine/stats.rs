@@ -66,6 +66,11 @@ pub enum DropReason {
     /// multicast, reserved or `0.x.x.x` address (spoofed or broken).
     /// Never admitted, never answered.
     InvalidSource,
+    /// From an admitted source other than the peer (a second port of its
+    /// address, or a new address after `TimeOut`) within
+    /// [`super::STRANGER_INTERVAL_MS`] of the last one decoded: a flood from
+    /// there cannot cost more than one decode per robot cycle.
+    Throttled,
     /// Could not be decoded (the kind is counted separately).
     Decode(DecodeErrorKind),
     /// The reply did not fit the buffer (a wrong buffer size; never with
@@ -90,6 +95,9 @@ pub struct Stats {
     pub dropped_foreign: u32,
     /// From port 0 or a non-unicast address ([`DropReason::InvalidSource`]).
     pub dropped_invalid_source: u32,
+    /// Not the peer, within one cycle of the last such source decoded
+    /// ([`DropReason::Throttled`]).
+    pub dropped_throttled: u32,
     pub dropped_decode: u32,
     pub dropped_encode: u32,
     pub dropped_no_reply: u32,
@@ -152,6 +160,7 @@ impl Stats {
         periodic_sent: 0,
         dropped_foreign: 0,
         dropped_invalid_source: 0,
+        dropped_throttled: 0,
         dropped_decode: 0,
         dropped_encode: 0,
         dropped_no_reply: 0,
@@ -195,6 +204,7 @@ impl Stats {
         match reason {
             DropReason::ForeignSource => bump(&mut self.dropped_foreign),
             DropReason::InvalidSource => bump(&mut self.dropped_invalid_source),
+            DropReason::Throttled => bump(&mut self.dropped_throttled),
             DropReason::Decode(kind) => {
                 bump(&mut self.dropped_decode);
                 if let Some(c) = self.decode_errors.get_mut(kind.index()) {
