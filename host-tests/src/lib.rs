@@ -12,6 +12,7 @@ pub mod layouts {
 }
 
 pub mod boards;
+pub mod fuzzing;
 pub mod qemu;
 pub mod qemu_bench;
 pub mod robot;

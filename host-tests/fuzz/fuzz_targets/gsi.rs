@@ -1,0 +1,3 @@
+#![no_main]
+//! See host_tests::fuzzing::gsi for what is checked.
+libfuzzer_sys::fuzz_target!(|data: &[u8]| host_tests::fuzzing::gsi(data));
