@@ -183,13 +183,18 @@ pub struct Qemu {
 impl Qemu {
     /// The QEMU command line for `boot`.
     pub fn command(boot: &Boot) -> Result<Command, String> {
-        let nic = slirp_network(boot)?;
+        Self::command_on(boot, &slirp_network(boot)?)
+    }
+
+    /// The QEMU command line for `boot` with the NIC option `nic` (e.g. a
+    /// tap device instead of user networking).
+    pub fn command_on(boot: &Boot, nic: &str) -> Result<Command, String> {
         let mut cmd = Command::new(QEMU);
         cmd.args([
             "-M", MACHINE, "-display", "none", "-serial", "none", "-monitor", "none",
         ])
         .args(["-semihosting-config", "enable=on,target=native"])
-        .args(["-nic", &nic])
+        .args(["-nic", nic])
         .arg("-kernel")
         .arg(&boot.elf);
         if let Some(shift) = boot.icount_shift {
@@ -199,8 +204,17 @@ impl Qemu {
     }
 
     pub fn boot(boot: &Boot) -> Result<Qemu, String> {
+        Self::start(boot, Self::command(boot)?)
+    }
+
+    /// Boots `boot` with the NIC option `nic` (see [`Qemu::command_on`]).
+    pub fn boot_on(boot: &Boot, nic: &str) -> Result<Qemu, String> {
+        Self::start(boot, Self::command_on(boot, nic)?)
+    }
+
+    fn start(boot: &Boot, mut command: Command) -> Result<Qemu, String> {
         let elf = std::fs::read(&boot.elf).map_err(|e| format!("{}: {e}", boot.elf.display()))?;
-        let mut child = Self::command(boot)?
+        let mut child = command
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
@@ -477,5 +491,80 @@ mod tests {
         assert!(check_memory_map(&too_big, &map(MEMORY_MAP))
             .unwrap_err()
             .contains(".bss"));
+    }
+}
+
+/// The device's counters, from its once-a-second `counters:` log line.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DeviceCounters {
+    pub received: u64,
+    pub answered: u64,
+    pub foreign: u64,
+    pub invalid: u64,
+    pub throttled: u64,
+    pub decode: u64,
+}
+
+impl DeviceCounters {
+    /// `[…] counters: received R answered A dropped foreign F invalid-source I throttled T decode D | …`.
+    pub fn parse(line: &str) -> Option<DeviceCounters> {
+        let (_, rest) = line.split_once("] counters: ")?;
+        let words: Vec<&str> = rest.split_whitespace().collect();
+        let after = |key: &str| -> Option<u64> {
+            let i = words.iter().position(|w| *w == key)?;
+            words.get(i + 1)?.parse().ok()
+        };
+        Some(DeviceCounters {
+            received: after("received")?,
+            answered: after("answered")?,
+            foreign: after("foreign")?,
+            invalid: after("invalid-source")?,
+            throttled: after("throttled")?,
+            decode: after("decode")?,
+        })
+    }
+
+    /// Every message received was answered or dropped for a counted reason.
+    pub fn add_up(&self) -> bool {
+        self.received == self.answered + self.foreign + self.invalid + self.throttled + self.decode
+    }
+
+    /// Waits (up to 5 s) for a counter line logged after line `start` and
+    /// returns the last one.
+    pub fn fresh(board: &Qemu, start: usize) -> Result<DeviceCounters, String> {
+        let end = std::time::Instant::now() + Duration::from_secs(5);
+        loop {
+            if let Some(c) = board.since(start).iter().rev().find_map(|l| Self::parse(l)) {
+                return Ok(c);
+            }
+            if std::time::Instant::now() > end {
+                return Err("no counter line from the device within 5 s".into());
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+#[cfg(test)]
+mod counter_tests {
+    use super::DeviceCounters;
+
+    #[test]
+    fn counter_line_parses_and_adds_up() {
+        let c = DeviceCounters::parse("[    3.0 INFO ] counters: received 11 answered 6 dropped foreign 1 invalid-source 1 throttled 1 decode 2 | send-errors 0 stalled 0 | lost 0 dup 0").unwrap();
+        assert_eq!(
+            (
+                c.received,
+                c.answered,
+                c.foreign,
+                c.invalid,
+                c.throttled,
+                c.decode
+            ),
+            (11, 6, 1, 1, 1, 2)
+        );
+        assert!(c.add_up());
+        assert!(!DeviceCounters { received: 12, ..c }.add_up());
+        assert_eq!(DeviceCounters::parse("[ 1 INFO ] state CONNECTED"), None);
     }
 }

@@ -227,6 +227,24 @@ pub fn hostile() -> Vec<Input> {
 /// port it is admitted, decoded and rejected at its first byte.
 pub const FLOOD_LEN: usize = 64;
 
+/// What the flood sends, in turn: the garbage datagram, the two costliest
+/// rejected inputs of [`hostile`] (a whole `MAX_RECEIVE_LEN` decoded before
+/// the rejection), and a 9,000-byte datagram (IP fragments on the wire,
+/// which the device's stack drops). Each is rejected, so the controller's
+/// Id accounting (S3) is not disturbed; valid messages from the
+/// controller's second port would take the peer over (the peer rule's
+/// reconnecting controller), as the engine tests show.
+pub fn flood_datagrams() -> Vec<(String, Vec<u8>)> {
+    let mut all = vec![("garbage".to_string(), flood_datagram())];
+    for input in hostile() {
+        if input.name == "rejected at the last byte" || input.name == "truncated" {
+            all.push((input.name.clone(), input.with_id(7)));
+        }
+    }
+    all.push(("9000-byte (fragmented)".to_string(), vec![b'<'; 9000]));
+    all
+}
+
 pub fn flood_datagram() -> Vec<u8> {
     let mut d = b"FLOOD not a robot message; ".to_vec();
     d.resize(FLOOD_LEN, b'#');
@@ -417,6 +435,20 @@ mod tests {
         let e = decode::<layout::RobDataMessage>(&flood_datagram(), &mut robot).unwrap_err();
         assert_eq!(e.offset, 0, "{e:?}");
         assert_eq!(flood_datagram().len(), FLOOD_LEN);
+    }
+
+    #[test]
+    fn every_flood_datagram_is_rejected() {
+        use rri_firmware::codec::decode;
+        let flood = flood_datagrams();
+        assert_eq!(flood.len(), 4, "garbage, two hostile, oversize");
+        for (name, d) in &flood {
+            let mut robot = layout::RobotData::default();
+            assert!(
+                decode::<layout::RobDataMessage>(d, &mut robot).is_err(),
+                "{name} would be answered"
+            );
+        }
     }
 
     #[test]

@@ -12,8 +12,9 @@
 //!    values) and of the hostile one (every input `MAX_RECEIVE_LEN` bytes
 //!    long) 20 times, one at a time;
 //! 4. the production firmware in real time (no `-icount`) driven by the
-//!    simulator while a flood of non-RRI datagrams arrives from a second
-//!    port at ten times the cycle rate (under `-icount` QEMU's user
+//!    simulator while a flood of rejected datagrams (garbage, the costliest
+//!    rejected hostile inputs, 9,000-byte fragmented ones) arrives from a
+//!    second port at ten times the cycle rate (under `-icount` QEMU's user
 //!    networking loses a few % of host datagrams under sustained load,
 //!    with or without our firmware's help, so the flood runs without it).
 //!
@@ -90,7 +91,8 @@ struct Driven {
 }
 
 /// Runs the robot simulator for `cycles` against `to`, with a flood of
-/// non-RRI datagrams from a second port every `flood_us` (0: none).
+/// rejected datagrams ([`qb::flood_datagrams`], in turn) from a second port
+/// every `flood_us` (0: none).
 fn drive(
     board: &Qemu,
     to: std::net::SocketAddr,
@@ -106,11 +108,13 @@ fn drive(
         let (stop, flooded) = (stop.clone(), flooded.clone());
         let socket = UdpSocket::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
         std::thread::spawn(move || {
-            let datagram = qb::flood_datagram();
+            let datagrams = qb::flood_datagrams();
             let period = Duration::from_micros(flood_us.max(1));
             let mut next = Instant::now();
+            let mut turn = datagrams.iter().map(|(_, d)| d).cycle();
             while flood_us > 0 && !stop.load(Ordering::Relaxed) {
-                if socket.send_to(&datagram, to).is_ok() {
+                let Some(datagram) = turn.next() else { break };
+                if socket.send_to(datagram, to).is_ok() {
                     flooded.fetch_add(1, Ordering::Relaxed);
                 }
                 next += period;
@@ -176,10 +180,11 @@ fn last_stack(log: &[String]) -> Option<(u64, u64, u64)> {
     })
 }
 
-/// Waits (up to 3 s) for a stack line newer than everything the bench did.
+/// Waits (up to 10 s) for a counter line newer than everything the bench
+/// did, then returns the last stack figures.
 fn wait_for_stack(board: &Qemu) -> Result<(u64, u64, u64), String> {
     let start = board.lines();
-    let end = Instant::now() + Duration::from_secs(3);
+    let end = Instant::now() + Duration::from_secs(10);
     loop {
         let seen = board.since(start);
         // A new line appears only when the mark grew; the last one before
@@ -189,7 +194,11 @@ fn wait_for_stack(board: &Qemu) -> Result<(u64, u64, u64), String> {
                 .ok_or_else(|| "the device logged no stack line".to_string());
         }
         if Instant::now() > end {
-            return Err("no counter line from the device within 3 s".into());
+            let tail = board.since(start.saturating_sub(5));
+            return Err(format!(
+                "no counter line from the device within 10 s; its last lines:\n{}",
+                tail.join("\n")
+            ));
         }
         std::thread::sleep(Duration::from_millis(20));
     }
@@ -327,10 +336,14 @@ fn bench(args: &Args) -> Result<bool, String> {
     let mut flood_board = Qemu::boot(&flood_boot)?;
     flood_board.wait_for("state CONNECTED", Duration::from_secs(30))?;
     println!(
-        "== robot simulator in real time: {} cycles every 4 ms, flood of {}-byte non-RRI datagrams from a second port every {} µs",
+        "== robot simulator in real time: {} cycles every 4 ms, flood from a second port every {} µs, in turn: {}",
         args.cycles,
-        qb::FLOOD_LEN,
-        args.flood_us
+        args.flood_us,
+        qb::flood_datagrams()
+            .iter()
+            .map(|(name, d)| format!("{name} ({} B)", d.len()))
+            .collect::<Vec<_>>()
+            .join(", ")
     );
     let flooded = drive(
         &flood_board,

@@ -1,0 +1,317 @@
+//! `cargo flood [-- --cycles N] [--flood-us 400]`: the firmware on QEMU
+//! attached to a tap device in a network namespace of its own, driven by
+//! the robot simulator at 4 ms while a **foreign address** and a **second
+//! port of the controller's address** flood it at ten times the cycle rate.
+//!
+//! QEMU's user networking (what `cargo demo` and `cargo qemu-bench` use)
+//! shows every host sender as one address, so a foreign address needs a
+//! real link: this tool makes a namespace (`ip netns`, root only) with a
+//! tap device holding two addresses in the device's /24 — the controller
+//! and a stranger — and runs itself, QEMU and the simulator inside it.
+//! Nothing leaves the namespace; it is deleted at the end.
+//!
+//! The stranger sends valid robot messages, garbage, the costliest
+//! rejected hostile inputs and 9,000-byte (fragmented) datagrams; the
+//! controller's second port sends the rejected ones. Fails when a reply
+//! reaches either flooder (a foreign source is never answered, a rejected
+//! datagram never), a reply to the robot is wrong, or the device's counters
+//! do not add up. Lost and late replies are reported (see the README).
+
+use clap::Parser;
+use host_tests::qemu::{self, Boot, DeviceCounters, Qemu};
+use host_tests::qemu_bench as qb;
+use host_tests::robot::{run, RobotOptions};
+use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
+use std::process::{Command, ExitCode};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Set (to the namespace's name) in the copy of this tool that runs inside.
+const INSIDE: &str = "RRI_FLOOD_NETNS";
+/// The firmware image, built outside (cargo may need the network).
+const ELF: &str = "RRI_FLOOD_ELF";
+const TAP: &str = "rri0";
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "cargo flood",
+    about = "Flood the QEMU firmware from a foreign address and a second controller port (root: uses a network namespace)"
+)]
+struct Args {
+    /// Robot messages, one every 4 ms.
+    #[arg(long, default_value_t = 5_000, value_parser = clap::value_parser!(u64).range(1..))]
+    cycles: u64,
+    /// Flood period in µs over both flooders (400 = ten times the 4 ms
+    /// cycle rate).
+    #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u64).range(1..))]
+    flood_us: u64,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let result = match std::env::var(INSIDE) {
+        Ok(_) => inside(&args),
+        Err(_) => outside(),
+    };
+    match result {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn ip(args: &[&str]) -> Result<(), String> {
+    let out = Command::new("ip")
+        .args(args)
+        .output()
+        .map_err(|e| format!("cannot run `ip` (package iproute2): {e}"))?;
+    if out.status.success() {
+        Ok(())
+    } else {
+        Err(format!(
+            "`ip {}` failed: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&out.stderr).trim()
+        ))
+    }
+}
+
+/// The namespace, deleted (with its tap device) when dropped.
+struct Namespace(String);
+
+impl Drop for Namespace {
+    fn drop(&mut self) {
+        let _ = ip(&["netns", "delete", &self.0]);
+    }
+}
+
+/// The device's address and the two host addresses beside it in its /24.
+fn addresses() -> Result<(gsi_config::Device, [u8; 4], Ipv4Addr, Ipv4Addr), String> {
+    let (gsi, name) = host_tests::built_gsi();
+    let device = gsi_config::load(&gsi, name.as_deref())
+        .map_err(|f| f.to_string())?
+        .device;
+    let ip: Ipv4Addr = device.network.address.parse().map_err(|_| {
+        format!(
+            "Description.xml's Network Address {} is not an IPv4 address",
+            device.network.address
+        )
+    })?;
+    let [a, b, c, d] = ip.octets();
+    let pick = |want: u8| if want == d { want + 1 } else { want };
+    let controller = Ipv4Addr::new(a, b, c, pick(1));
+    let stranger = Ipv4Addr::new(a, b, c, pick(200));
+    Ok((device, [a, b, c, d], controller, stranger))
+}
+
+fn outside() -> Result<bool, String> {
+    let mut out = std::io::stdout();
+    qemu::ensure_qemu(&mut out)?;
+    let (_, _, controller, stranger) = addresses()?;
+    println!("== building the firmware for QEMU {}", qemu::MACHINE);
+    let elf = qemu::build_firmware(&[], None, "flood")?;
+    let ns = Namespace(format!("rri-flood-{}", std::process::id()));
+    ip(&["netns", "add", &ns.0]).map_err(|e| {
+        format!(
+            "{e}\ncargo flood needs root and network namespaces (it makes one, with a tap device)"
+        )
+    })?;
+    let inns = |args: &[&str]| -> Result<(), String> {
+        let mut all = vec!["netns", "exec", &ns.0, "ip"];
+        all.extend_from_slice(args);
+        ip(&all)
+    };
+    inns(&["link", "set", "lo", "up"])?;
+    inns(&["tuntap", "add", "dev", TAP, "mode", "tap"])?;
+    // The controller first: the primary address, the robot's source.
+    inns(&["addr", "add", &format!("{controller}/24"), "dev", TAP])?;
+    inns(&["addr", "add", &format!("{stranger}/24"), "dev", TAP])?;
+    inns(&["link", "set", TAP, "up"])?;
+    println!(
+        "== network namespace {} with tap {TAP}: controller {controller}, stranger {stranger}",
+        ns.0
+    );
+    let me = std::env::current_exe().map_err(|e| e.to_string())?;
+    let status = Command::new("ip")
+        .args(["netns", "exec", &ns.0])
+        .arg(me)
+        .args(std::env::args_os().skip(1))
+        .env(INSIDE, &ns.0)
+        .env(ELF, &elf)
+        .status()
+        .map_err(|e| format!("cannot run inside {}: {e}", ns.0))?;
+    Ok(status.success())
+}
+
+/// What a flooder did: datagrams sent per kind, and replies it received.
+type Flooded = (Vec<(String, u64)>, u64);
+
+/// One flooder: sends `datagrams` in turn every `period` from `from` until
+/// stopped.
+fn flooder(
+    from: SocketAddr,
+    to: SocketAddr,
+    datagrams: Vec<(String, Vec<u8>)>,
+    period: Duration,
+    stop: Arc<AtomicBool>,
+) -> Result<std::thread::JoinHandle<Flooded>, String> {
+    let socket = UdpSocket::bind(from).map_err(|e| format!("bind {from}: {e}"))?;
+    socket.set_nonblocking(true).map_err(|e| e.to_string())?;
+    Ok(std::thread::spawn(move || {
+        let mut sent = vec![0u64; datagrams.len()];
+        let mut replies = 0u64;
+        let mut buf = [0u8; 2048];
+        let mut next = Instant::now();
+        let mut i = 0;
+        while !stop.load(Ordering::Relaxed) {
+            if socket.send_to(&datagrams[i].1, to).is_ok() {
+                sent[i] += 1;
+            }
+            i = (i + 1) % datagrams.len();
+            while socket.recv_from(&mut buf).is_ok() {
+                replies += 1;
+            }
+            next += period;
+            match next.checked_duration_since(Instant::now()) {
+                Some(wait) => std::thread::sleep(wait),
+                None => next = Instant::now(),
+            }
+        }
+        // Late replies.
+        std::thread::sleep(Duration::from_millis(200));
+        while socket.recv_from(&mut buf).is_ok() {
+            replies += 1;
+        }
+        let names = datagrams.into_iter().map(|(n, _)| n);
+        (names.zip(sent).collect(), replies)
+    }))
+}
+
+fn inside(args: &Args) -> Result<bool, String> {
+    let (device, [a, b, c, d], controller, stranger) = addresses()?;
+    let elf = std::env::var(ELF).map_err(|_| format!("{ELF} is not set"))?;
+    let boot = Boot {
+        elf: elf.into(),
+        device: device.clone(),
+        host_port: 0,
+        icount_shift: None,
+    };
+    let nic = format!("tap,model=lan9118,ifname={TAP},script=no,downscript=no");
+    let mut board = Qemu::boot_on(&boot, &nic)?;
+    board.wait_for("state CONNECTED", Duration::from_secs(30))?;
+    let to = SocketAddr::from(([a, b, c, d], device.channel.port));
+
+    // The stranger: valid messages first among its kinds.
+    let mut foreign = vec![(
+        "valid robot message".to_string(),
+        br#"<RobData Id="7" Ts="1.5"><P_act X="1" Y="2" Z="3" Rx="0" Ry="0" Rz="0"/></RobData>"#
+            .to_vec(),
+    )];
+    foreign.extend(qb::flood_datagrams());
+    let period = Duration::from_micros(args.flood_us * 2);
+    let stop = Arc::new(AtomicBool::new(false));
+    println!(
+        "== robot simulator: {} cycles every 4 ms to {to}; once it is the peer, a flood every {} µs from {stranger} (foreign) and from {controller} on a second port",
+        args.cycles, args.flood_us
+    );
+    let start = board.lines();
+    let (gsi, name) = host_tests::built_gsi();
+    let mut opts = RobotOptions::new(gsi, to);
+    opts.device = name;
+    opts.cycles = args.cycles;
+    opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let robot = {
+        let device = device.clone();
+        std::thread::spawn(move || run(&opts, &device, &mut std::io::sink()).map(|(s, _)| s))
+    };
+    // The first valid source becomes the peer (the peer rule): a stranger
+    // that spoke first would be the controller. The flood starts once the
+    // robot is.
+    board.wait_for("state OPERATING", Duration::from_secs(10))?;
+    let strangers = flooder(
+        SocketAddr::from((stranger, 0)),
+        to,
+        foreign,
+        period,
+        stop.clone(),
+    )?;
+    let second_port = flooder(
+        SocketAddr::from((controller, 0)),
+        to,
+        qb::flood_datagrams(),
+        period,
+        stop.clone(),
+    )?;
+    let result = robot
+        .join()
+        .map_err(|_| "the robot simulator panicked".to_string())?;
+    stop.store(true, Ordering::Relaxed);
+    let joined =
+        |h: std::thread::JoinHandle<_>| h.join().map_err(|_| "a flooder panicked".to_string());
+    let (foreign_sent, foreign_replies) = joined(strangers)?;
+    let (port_sent, port_replies) = joined(second_port)?;
+    std::thread::sleep(Duration::from_millis(1100));
+    let counters = DeviceCounters::fresh(&board, start)?;
+    let exited = board.exited();
+    let log = board.stop();
+    let s = result?;
+
+    let total = |v: &[(String, u64)]| v.iter().map(|(_, n)| n).sum::<u64>();
+    println!(
+        "  robot: sent {} answered {} lost {} wrong Id {} malformed {}; late {}; latency µs median {} p99 {} max {}",
+        s.sent, s.answered, s.lost, s.wrong_id, s.malformed, s.late,
+        s.latency_us.median, s.latency_us.p99, s.latency_us.max
+    );
+    for (who, sent, replies) in [
+        ("foreign address", &foreign_sent, foreign_replies),
+        ("second port", &port_sent, port_replies),
+    ] {
+        let kinds: Vec<String> = sent.iter().map(|(n, k)| format!("{n} {k}")).collect();
+        println!(
+            "  {who}: sent {} ({}); replies received {replies}",
+            total(sent),
+            kinds.join(", ")
+        );
+    }
+    println!(
+        "  device: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} ({})",
+        counters.received,
+        counters.answered,
+        counters.foreign,
+        counters.invalid,
+        counters.throttled,
+        counters.decode,
+        if counters.add_up() { "adds up" } else { "DOES NOT ADD UP" }
+    );
+    let mut ok = true;
+    let mut fail = |why: String| {
+        println!("FAIL: {why}");
+        ok = false;
+    };
+    if foreign_replies + port_replies > 0 {
+        fail(format!(
+            "{foreign_replies} replies to the foreign address, {port_replies} to the second port"
+        ));
+    }
+    if s.wrong_id + s.malformed > 0 {
+        fail(format!("wrong replies to the robot: {:?}", s.first_error));
+    }
+    if !counters.add_up() {
+        fail("the device's counters do not add up".into());
+    }
+    if counters.foreign > total(&foreign_sent) {
+        fail("more foreign drops than foreign datagrams".into());
+    }
+    if let Some(status) = exited {
+        fail(format!("the firmware stopped (QEMU {status})"));
+    }
+    if let Some(p) = log.iter().find(|l| l.contains("panic")) {
+        fail(format!("the firmware panicked: {p}"));
+    }
+    println!("{}", if ok { "flood: PASS" } else { "flood: FAIL" });
+    Ok(ok)
+}
