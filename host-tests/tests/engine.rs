@@ -671,3 +671,19 @@ fn nothing_is_throttled_before_a_peer_is_locked() {
     assert!(matches!(rig.send(ROBOT, 1, 0), Outcome::Reply { .. }));
     assert_eq!(rig.engine.stats().dropped_throttled, 0);
 }
+
+/// TCP (M10): after the served connection closes, the next connection's
+/// first message is the controller reconnecting, even within one cycle of
+/// the last stranger: never throttled (the sensor_transport reset test
+/// caught this).
+#[test]
+fn a_new_connection_after_a_close_is_never_throttled() {
+    let mut rig = Rig::new(config());
+    rig.send(ROBOT, 1, 0);
+    let second = Endpoint::new(ROBOT.ip, ROBOT.port + 1);
+    assert!(matches!(rig.send(second, 1, 1), Outcome::Reply { .. }));
+    rig.engine.peer_closed();
+    let third = Endpoint::new(ROBOT.ip, ROBOT.port + 2);
+    assert!(matches!(rig.send(third, 1, 2), Outcome::Reply { to, .. } if to == third));
+    assert_eq!(rig.engine.stats().dropped_throttled, 0);
+}

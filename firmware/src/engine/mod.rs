@@ -184,8 +184,11 @@ where
         self.set_state(SensorState::Error, Some(ErrorCode::InitFailed));
     }
 
-    /// S2/M10: the TCP peer closed the connection: `CLOSED`.
+    /// S2/M10: the TCP peer closed the connection: `CLOSED`. The next
+    /// connection's first message is a reconnecting controller, never
+    /// throttled (on TCP the engine only ever sees the served connection).
     pub fn peer_closed(&mut self) {
+        self.stranger_at = None;
         bump(&mut self.stats.closed);
         self.set_state(SensorState::Closed, None);
     }
