@@ -132,6 +132,7 @@ fn with_udp_device<A>(
 ) where
     A: rri_firmware::engine::Application<layout::RobotData, layout::SensorData>,
 {
+    let _clock = memnet::mock_clock();
     MockDriver::get().reset();
     let to_device: Frames = Rc::default();
     let from_device: Frames = Rc::default();

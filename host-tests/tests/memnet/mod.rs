@@ -95,6 +95,20 @@ pub fn poll_once<F: Future>(f: std::pin::Pin<&mut F>) -> Poll<F::Output> {
 /// reset). Polls all of them, 50 µs of mock time per step, until the robot
 /// is done or `max_steps` have passed, then 100 steps more so the device
 /// sees the end. Returns whether the robot finished.
+/// embassy-time's mock clock is one per process, and cargo runs a test
+/// file's tests on parallel threads: a test that advanced or reset it under
+/// another made that one's time jump (a TCP test once saw a connection
+/// served "after 364 ms" in CI). Every test that drives the mock clock
+/// holds this for its whole run.
+pub fn mock_clock() -> std::sync::MutexGuard<'static, ()> {
+    static CLOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    // A test that failed while holding it leaves it poisoned; the clock is
+    // reset by the next holder anyway.
+    CLOCK
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
 pub fn with_tcp_device<A, F>(
     engine: &mut Engine<RobDataMessage, SensDataMessage>,
     app: &mut A,
@@ -105,6 +119,7 @@ where
     A: Application<layout::RobotData, layout::SensorData>,
     F: Future<Output = ()>,
 {
+    let _clock = mock_clock();
     let device_ip = layout::NETWORK_IPV4.expect("IPv4");
     MockDriver::get().reset();
     let a: Frames = Rc::default();
