@@ -529,16 +529,20 @@ impl DeviceCounters {
         self.received == self.answered + self.foreign + self.invalid + self.throttled + self.decode
     }
 
-    /// Waits (up to 5 s) for a counter line logged after line `start` and
-    /// returns the last one.
-    pub fn fresh(board: &Qemu, start: usize) -> Result<DeviceCounters, String> {
-        let end = std::time::Instant::now() + Duration::from_secs(5);
+    /// Waits (up to `timeout`) for a counter line logged after line
+    /// `start` and returns the last one.
+    pub fn fresh(board: &Qemu, start: usize, timeout: Duration) -> Result<DeviceCounters, String> {
+        let end = std::time::Instant::now() + timeout;
         loop {
             if let Some(c) = board.since(start).iter().rev().find_map(|l| Self::parse(l)) {
                 return Ok(c);
             }
             if std::time::Instant::now() > end {
-                return Err("no counter line from the device within 5 s".into());
+                let tail = board.since(start.saturating_sub(5));
+                return Err(format!(
+                    "no counter line from the device within {timeout:?}; its last lines:\n{}",
+                    tail.join("\n")
+                ));
             }
             std::thread::sleep(Duration::from_millis(50));
         }

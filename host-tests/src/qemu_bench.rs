@@ -245,6 +245,69 @@ pub fn flood_datagrams() -> Vec<(String, Vec<u8>)> {
     all
 }
 
+/// What a flooder did: datagrams sent per kind (in [`flood`]'s order), and
+/// replies it received (none may come: every flood datagram is rejected or
+/// from a source the device never answers).
+#[derive(Clone, Debug, Default)]
+pub struct Flooded {
+    pub sent: Vec<(String, u64)>,
+    pub replies: u64,
+}
+
+impl Flooded {
+    pub fn total(&self) -> u64 {
+        self.sent.iter().map(|(_, n)| n).sum()
+    }
+}
+
+/// A flooder thread: sends `datagrams` in turn to `to`, one every `period`,
+/// from a socket bound to `from`, until `stop`; counts what it sent and
+/// any reply (`cargo qemu-bench`'s second port, `cargo flood`'s stranger
+/// and second port).
+pub fn flood(
+    from: std::net::SocketAddr,
+    to: std::net::SocketAddr,
+    datagrams: Vec<(String, Vec<u8>)>,
+    period: std::time::Duration,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+) -> Result<std::thread::JoinHandle<Flooded>, String> {
+    use std::sync::atomic::Ordering;
+    use std::time::{Duration, Instant};
+    let socket = std::net::UdpSocket::bind(from).map_err(|e| format!("bind {from}: {e}"))?;
+    socket.set_nonblocking(true).map_err(|e| e.to_string())?;
+    Ok(std::thread::spawn(move || {
+        let mut sent = vec![0u64; datagrams.len()];
+        let mut replies = 0u64;
+        let mut buf = [0u8; 2048];
+        let mut next = Instant::now();
+        let mut turn = (0..datagrams.len()).cycle();
+        while !stop.load(Ordering::Relaxed) {
+            let Some(i) = turn.next() else { break };
+            if socket.send_to(&datagrams[i].1, to).is_ok() {
+                sent[i] += 1;
+            }
+            while socket.recv_from(&mut buf).is_ok() {
+                replies += 1;
+            }
+            next += period;
+            match next.checked_duration_since(Instant::now()) {
+                Some(wait) => std::thread::sleep(wait),
+                None => next = Instant::now(),
+            }
+        }
+        // Late replies.
+        std::thread::sleep(Duration::from_millis(200));
+        while socket.recv_from(&mut buf).is_ok() {
+            replies += 1;
+        }
+        let names = datagrams.into_iter().map(|(n, _)| n);
+        Flooded {
+            sent: names.zip(sent).collect(),
+            replies,
+        }
+    }))
+}
+
 pub fn flood_datagram() -> Vec<u8> {
     let mut d = b"FLOOD not a robot message; ".to_vec();
     d.resize(FLOOD_LEN, b'#');

@@ -21,11 +21,11 @@ use clap::Parser;
 use host_tests::qemu::{self, Boot, DeviceCounters, Qemu};
 use host_tests::qemu_bench as qb;
 use host_tests::robot::{run, RobotOptions};
-use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
+use std::net::{Ipv4Addr, SocketAddr};
 use std::process::{Command, ExitCode};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Set (to the namespace's name) in the copy of this tool that runs inside.
 const INSIDE: &str = "RRI_FLOOD_NETNS";
@@ -147,50 +147,6 @@ fn outside() -> Result<bool, String> {
     Ok(status.success())
 }
 
-/// What a flooder did: datagrams sent per kind, and replies it received.
-type Flooded = (Vec<(String, u64)>, u64);
-
-/// One flooder: sends `datagrams` in turn every `period` from `from` until
-/// stopped.
-fn flooder(
-    from: SocketAddr,
-    to: SocketAddr,
-    datagrams: Vec<(String, Vec<u8>)>,
-    period: Duration,
-    stop: Arc<AtomicBool>,
-) -> Result<std::thread::JoinHandle<Flooded>, String> {
-    let socket = UdpSocket::bind(from).map_err(|e| format!("bind {from}: {e}"))?;
-    socket.set_nonblocking(true).map_err(|e| e.to_string())?;
-    Ok(std::thread::spawn(move || {
-        let mut sent = vec![0u64; datagrams.len()];
-        let mut replies = 0u64;
-        let mut buf = [0u8; 2048];
-        let mut next = Instant::now();
-        let mut i = 0;
-        while !stop.load(Ordering::Relaxed) {
-            if socket.send_to(&datagrams[i].1, to).is_ok() {
-                sent[i] += 1;
-            }
-            i = (i + 1) % datagrams.len();
-            while socket.recv_from(&mut buf).is_ok() {
-                replies += 1;
-            }
-            next += period;
-            match next.checked_duration_since(Instant::now()) {
-                Some(wait) => std::thread::sleep(wait),
-                None => next = Instant::now(),
-            }
-        }
-        // Late replies.
-        std::thread::sleep(Duration::from_millis(200));
-        while socket.recv_from(&mut buf).is_ok() {
-            replies += 1;
-        }
-        let names = datagrams.into_iter().map(|(n, _)| n);
-        (names.zip(sent).collect(), replies)
-    }))
-}
-
 fn inside(args: &Args) -> Result<bool, String> {
     let (device, [a, b, c, d], controller, stranger) = addresses()?;
     let elf = std::env::var(ELF).map_err(|_| format!("{ELF} is not set"))?;
@@ -232,14 +188,14 @@ fn inside(args: &Args) -> Result<bool, String> {
     // that spoke first would be the controller. The flood starts once the
     // robot is.
     board.wait_for("state OPERATING", Duration::from_secs(10))?;
-    let strangers = flooder(
+    let strangers = qb::flood(
         SocketAddr::from((stranger, 0)),
         to,
         foreign,
         period,
         stop.clone(),
     )?;
-    let second_port = flooder(
+    let second_port = qb::flood(
         SocketAddr::from((controller, 0)),
         to,
         qb::flood_datagrams(),
@@ -252,29 +208,30 @@ fn inside(args: &Args) -> Result<bool, String> {
     stop.store(true, Ordering::Relaxed);
     let joined =
         |h: std::thread::JoinHandle<_>| h.join().map_err(|_| "a flooder panicked".to_string());
-    let (foreign_sent, foreign_replies) = joined(strangers)?;
-    let (port_sent, port_replies) = joined(second_port)?;
+    let foreign = joined(strangers)?;
+    let port = joined(second_port)?;
     std::thread::sleep(Duration::from_millis(1100));
-    let counters = DeviceCounters::fresh(&board, start)?;
+    let counters = DeviceCounters::fresh(&board, start, Duration::from_secs(5))?;
     let exited = board.exited();
     let log = board.stop();
     let s = result?;
 
-    let total = |v: &[(String, u64)]| v.iter().map(|(_, n)| n).sum::<u64>();
     println!(
         "  robot: sent {} answered {} lost {} wrong Id {} malformed {}; late {}; latency µs median {} p99 {} max {}",
         s.sent, s.answered, s.lost, s.wrong_id, s.malformed, s.late,
         s.latency_us.median, s.latency_us.p99, s.latency_us.max
     );
-    for (who, sent, replies) in [
-        ("foreign address", &foreign_sent, foreign_replies),
-        ("second port", &port_sent, port_replies),
-    ] {
-        let kinds: Vec<String> = sent.iter().map(|(n, k)| format!("{n} {k}")).collect();
+    for (who, flooded) in [("foreign address", &foreign), ("second port", &port)] {
+        let kinds: Vec<String> = flooded
+            .sent
+            .iter()
+            .map(|(n, k)| format!("{n} {k}"))
+            .collect();
         println!(
-            "  {who}: sent {} ({}); replies received {replies}",
-            total(sent),
-            kinds.join(", ")
+            "  {who}: sent {} ({}); replies received {}",
+            flooded.total(),
+            kinds.join(", "),
+            flooded.replies
         );
     }
     println!(
@@ -292,9 +249,10 @@ fn inside(args: &Args) -> Result<bool, String> {
         println!("FAIL: {why}");
         ok = false;
     };
-    if foreign_replies + port_replies > 0 {
+    if foreign.replies + port.replies > 0 {
         fail(format!(
-            "{foreign_replies} replies to the foreign address, {port_replies} to the second port"
+            "{} replies to the foreign address, {} to the second port",
+            foreign.replies, port.replies
         ));
     }
     if s.wrong_id + s.malformed > 0 {
@@ -303,7 +261,7 @@ fn inside(args: &Args) -> Result<bool, String> {
     if !counters.add_up() {
         fail("the device's counters do not add up".into());
     }
-    if counters.foreign > total(&foreign_sent) {
+    if counters.foreign > foreign.total() {
         fail("more foreign drops than foreign datagrams".into());
     }
     if let Some(status) = exited {

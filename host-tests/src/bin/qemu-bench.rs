@@ -26,14 +26,14 @@
 //! figure is more than 5 % above it or a reply was missed.
 
 use clap::Parser;
-use host_tests::qemu::{self, Boot, Qemu};
+use host_tests::qemu::{self, Boot, DeviceCounters, Qemu};
 use host_tests::qemu_bench::{self as qb, Gated, Input, Record, Spread};
 use host_tests::robot::{run, RobotOptions};
 use serde_json::json;
 use std::net::UdpSocket;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -103,27 +103,16 @@ fn drive(
     paced: bool,
 ) -> Result<Driven, String> {
     let stop = Arc::new(AtomicBool::new(false));
-    let flooded = Arc::new(AtomicU64::new(0));
-    let flood = {
-        let (stop, flooded) = (stop.clone(), flooded.clone());
-        let socket = UdpSocket::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
-        std::thread::spawn(move || {
-            let datagrams = qb::flood_datagrams();
-            let period = Duration::from_micros(flood_us.max(1));
-            let mut next = Instant::now();
-            let mut turn = datagrams.iter().map(|(_, d)| d).cycle();
-            while flood_us > 0 && !stop.load(Ordering::Relaxed) {
-                let Some(datagram) = turn.next() else { break };
-                if socket.send_to(datagram, to).is_ok() {
-                    flooded.fetch_add(1, Ordering::Relaxed);
-                }
-                next += period;
-                match next.checked_duration_since(Instant::now()) {
-                    Some(wait) => std::thread::sleep(wait),
-                    None => next = Instant::now(),
-                }
-            }
-        })
+    let flood = if flood_us > 0 {
+        Some(qb::flood(
+            std::net::SocketAddr::from(([127, 0, 0, 1], 0)),
+            to,
+            qb::flood_datagrams(),
+            Duration::from_micros(flood_us),
+            stop.clone(),
+        )?)
+    } else {
+        None
     };
     let mut opts = RobotOptions::new(gsi.to_path_buf(), to);
     opts.cycles = cycles;
@@ -132,13 +121,16 @@ fn drive(
     let start = board.lines();
     let result = run(&opts, device, &mut std::io::sink());
     stop.store(true, Ordering::Relaxed);
-    let _ = flood.join();
+    let flooded = flood
+        .map(|f| f.join().map_err(|_| "the flooder panicked".to_string()))
+        .transpose()?
+        .unwrap_or_default();
     // The last records and a counter line reach the log.
     std::thread::sleep(Duration::from_millis(1200));
     let (summary, _) = result?;
     Ok(Driven {
         summary,
-        flood_sent: flooded.load(Ordering::Relaxed),
+        flood_sent: flooded.total(),
         lines: board.since(start),
     })
 }
@@ -180,28 +172,13 @@ fn last_stack(log: &[String]) -> Option<(u64, u64, u64)> {
     })
 }
 
-/// Waits (up to 10 s) for a counter line newer than everything the bench
-/// did, then returns the last stack figures.
+/// Waits (up to 10 s: under -icount the guest's second can be longer) for a
+/// counter line newer than everything the bench did, then returns the last
+/// stack figures: the stack line is logged just before the counter line,
+/// and only when the mark grew.
 fn wait_for_stack(board: &Qemu) -> Result<(u64, u64, u64), String> {
-    let start = board.lines();
-    let end = Instant::now() + Duration::from_secs(10);
-    loop {
-        let seen = board.since(start);
-        // A new line appears only when the mark grew; the last one before
-        // is as good once a counter line shows a check has run since.
-        if seen.iter().any(|l| l.contains("] counters: ")) {
-            return last_stack(&board.since(0))
-                .ok_or_else(|| "the device logged no stack line".to_string());
-        }
-        if Instant::now() > end {
-            let tail = board.since(start.saturating_sub(5));
-            return Err(format!(
-                "no counter line from the device within 10 s; its last lines:\n{}",
-                tail.join("\n")
-            ));
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    DeviceCounters::fresh(board, board.lines(), Duration::from_secs(10))?;
+    last_stack(&board.log()).ok_or_else(|| "the device logged no stack line".to_string())
 }
 
 fn records(lines: &[String]) -> Vec<Record> {

@@ -116,7 +116,7 @@ fn soak(args: &Args) -> Result<bool, String> {
         let rate = s.sent as f64 / t.elapsed().as_secs_f64();
         // Quiet now: the next counter line holds every message of the chunk.
         std::thread::sleep(Duration::from_millis(1100));
-        let c = Counters::fresh(&board, start)?;
+        let c = Counters::fresh(&board, start, Duration::from_secs(5))?;
         let p50 = s.latency_us.median;
         let base = *first_p50.get_or_insert(p50);
         println!(
