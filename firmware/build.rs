@@ -10,7 +10,12 @@
 //! - `RRI_REAL_DECIMALS`, `RRI_TIME_DECIMALS`: decimals written for reals
 //!   and times in sent messages (0..=6, default 3; M5).
 //! - `RRI_CONTROLLER`: pin the controller (`ip` or `ip:port`).
-//! - `RRI_SEND_PERIOD_MS`: periodic sends for one-way streams.
+//! - `RRI_SEND_PERIOD_MS`: periodic sends of the reply property for
+//!   one-way streams.
+//! - `RRI_REPLY`: the property every robot message is answered with (its
+//!   Name or Alias; default the first property the device sends, M11).
+//! - `RRI_PERIODIC`: other device properties sent on their own schedules,
+//!   `Name=MS[,Name=MS…]` (multiples of 4 ms), for `SiGetCyclic`.
 //! - `RRI_NETMASK` (prefix length 0..=32 or a dotted mask, default 24) and
 //!   `RRI_GATEWAY` (IPv4, default none): the boards' network besides the
 //!   device address from Description.xml (`$OUT_DIR/network.rs`).
@@ -32,6 +37,8 @@ fn main() {
         "RRI_TIME_DECIMALS",
         "RRI_CONTROLLER",
         "RRI_SEND_PERIOD_MS",
+        "RRI_REPLY",
+        "RRI_PERIODIC",
         "RRI_NETMASK",
         "RRI_GATEWAY",
     ] {
@@ -74,6 +81,21 @@ fn main() {
     for w in &loaded.warnings {
         report(w);
     }
+    let reply = match env("RRI_REPLY") {
+        None => 0,
+        Some(name) => gsi_codegen::device_property(&loaded.device, "RRI_REPLY", &name)
+            .unwrap_or_else(|e| {
+                errors.push(e);
+                0
+            }),
+    };
+    let periodic = match env("RRI_PERIODIC") {
+        None => Vec::new(),
+        Some(text) => gsi_codegen::periodic(&loaded.device, &text, reply).unwrap_or_else(|e| {
+            errors.push(e);
+            Vec::new()
+        }),
+    };
     if !errors.is_empty() {
         for e in &errors {
             println!("cargo::error={e}");
@@ -87,6 +109,8 @@ fn main() {
         time_decimals,
         controller,
         send_period_ms,
+        reply,
+        periodic,
     };
     let source = match gsi_codegen::generate(&loaded.device, &opts) {
         Ok(s) => s,

@@ -6,14 +6,15 @@
 //! coordinates.
 //!
 //! It works with any layout: it looks for the first `frame` field of the
-//! robot record (the pose), and writes into the first `real` array of the
-//! reply (`AppData` in the manual's example): `[distance, x, y, z,
-//! age_ms]`, as many as fit; a `string` field gets a status word (`OK`,
-//! `NO SAMPLE`, `STALE`).
+//! robot's properties (the pose), and writes into the first `real` array
+//! of the device property being sent (`AppData` in the manual's example):
+//! `[distance, x, y, z, age_ms]`, as many as fit; a `string` field gets a
+//! status word (`OK`, `NO SAMPLE`, `STALE`).
 
 use crate::engine::{Application, CycleInfo, Instant};
+use crate::properties::{DeviceSet, RobotSet};
 use crate::sample::SampleReader;
-use crate::schema::{FieldMut, FieldRef, Record};
+use crate::schema::{FieldMut, FieldRef};
 use crate::value::Frame;
 use micromath::F32Ext;
 
@@ -91,15 +92,22 @@ impl<'a> DemoApp<'a> {
     }
 }
 
-fn first_frame<R: Record>(robot: &R) -> Option<Frame> {
-    (0..R::FIELDS.len()).find_map(|i| match robot.field(i) {
-        Some(FieldRef::Frame(f)) => Some(*f),
-        _ => None,
+/// Most fields a record has (G3), so walking one by index is bounded.
+const MAX_FIELDS: usize = 64;
+
+fn first_frame<R: RobotSet>(robot: &R) -> Option<Frame> {
+    (0..R::WIRE_NAMES.len()).find_map(|p| {
+        (0..MAX_FIELDS)
+            .map_while(|i| robot.field(p, i))
+            .find_map(|f| match f {
+                FieldRef::Frame(f) => Some(*f),
+                _ => None,
+            })
     })
 }
 
-impl<R: Record, T: Record> Application<R, T> for DemoApp<'_> {
-    fn cycle(&mut self, robot: &R, reply: &mut T, info: &CycleInfo<'_>) {
+impl<R: RobotSet, D: DeviceSet> Application<R, D> for DemoApp<'_> {
+    fn cycle(&mut self, robot: &R, device: &mut D, info: &CycleInfo<'_>) {
         let reading = self.reader.latest();
         let age_us = reading.map(|r| info.now.micros_since(r.time));
         let status: &str = match age_us {
@@ -123,8 +131,9 @@ impl<R: Record, T: Record> Application<R, T> for DemoApp<'_> {
             point[2],
             age_ms,
         ];
-        for i in 0..T::FIELDS.len() {
-            match reply.field_mut(i) {
+        for i in 0..MAX_FIELDS {
+            match device.field_mut(info.sending, i) {
+                None => break,
                 Some(FieldMut::Reals(values)) => {
                     for (slot, v) in values.iter_mut().zip(out) {
                         *slot = v;
@@ -135,7 +144,7 @@ impl<R: Record, T: Record> Application<R, T> for DemoApp<'_> {
                     s.clear();
                     let _ = s.push_str(status);
                 }
-                _ => {}
+                Some(_) => {}
             }
         }
     }

@@ -8,7 +8,8 @@
 //! - [`layout`]: the message layouts generated at build time from the user's
 //!   GSI folder (`RRI_GSI_DIR`, `RRI_DEVICE`; see the README).
 //! - [`value`]: the RRI value types (exact time, frame, joints, strings).
-//! - [`schema`]: the vocabulary the generated layouts are written in.
+//! - [`schema`]: the vocabulary the generated layouts are written in;
+//!   [`properties`]: how the engine sees several properties per direction.
 //!
 //! Rules: no heap, no recursion, no panics on any input; every buffer is
 //! sized by a generated constant.
@@ -41,6 +42,7 @@ pub mod layout;
 #[cfg(feature = "net")]
 pub mod net;
 pub mod network;
+pub mod properties;
 pub mod sample;
 pub mod schema;
 pub mod snapshot;

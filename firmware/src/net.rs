@@ -5,7 +5,7 @@
 //! chip, and the host tests run this very code over an in-memory Ethernet.
 
 use crate::engine::{Application, Clock, Endpoint, Engine, Instant, Outcome};
-use crate::schema::MessageCodec;
+use crate::properties::{DeviceSet, RobotSet};
 use crate::tcp::{Framer, StallGuard};
 use embassy_futures::select::{select, Either};
 use embassy_net::tcp::{State as TcpState, TcpSocket};
@@ -37,7 +37,7 @@ const IPV4_UDP_HEADERS: usize = 20 + 8;
 /// the reply (if any) has been queued: publish a snapshot for the watchers,
 /// record timings. Everything here runs after the answer, so nothing a
 /// monitor does delays it.
-pub trait Monitor<Rx: MessageCodec, Tx: MessageCodec> {
+pub trait Monitor<R: RobotSet, D: DeviceSet> {
     /// A free-running counter read just before and just after the engine's
     /// work on a message (bench builds read the board's cycle counter).
     fn count(&self) -> u32 {
@@ -47,18 +47,18 @@ pub trait Monitor<Rx: MessageCodec, Tx: MessageCodec> {
     /// `counts` are [`Monitor::count`] before and after the engine.
     fn message(
         &mut self,
-        _engine: &Engine<Rx, Tx>,
+        _engine: &Engine<R, D>,
         _bytes: usize,
         _outcome: &Outcome,
         _counts: (u32, u32),
     ) {
     }
     /// The engine's time-driven work ran.
-    fn polled(&mut self, _engine: &Engine<Rx, Tx>) {}
+    fn polled(&mut self, _engine: &Engine<R, D>) {}
 }
 
 /// No monitor.
-impl<Rx: MessageCodec, Tx: MessageCodec> Monitor<Rx, Tx> for () {}
+impl<R: RobotSet, D: DeviceSet> Monitor<R, D> for () {}
 
 /// Buffers of the UDP cycle task, all sized by the generated layout:
 /// `RX` = `layout::MAX_RECEIVE_LEN`, `TX` = `layout::MAX_SEND_LEN`.
@@ -120,23 +120,21 @@ fn ip_endpoint(e: Endpoint) -> IpEndpoint {
 
 /// Runs the UDP cycle on `port` forever: receive → engine → reply, and the
 /// engine's time-driven work every [`POLL_INTERVAL`].
-pub async fn udp_cycle<Rx, Tx, A, C, M, const RX: usize, const TX: usize>(
+pub async fn udp_cycle<R, D, A, C, M, const RX: usize, const TX: usize>(
     stack: Stack<'_>,
     port: u16,
-    engine: &mut Engine<Rx, Tx>,
+    engine: &mut Engine<R, D>,
     app: &mut A,
     clock: &C,
     buffers: &mut UdpBuffers<RX, TX>,
     monitor: &mut M,
 ) -> !
 where
-    Rx: MessageCodec,
-    Tx: MessageCodec,
-    Rx::Data: Clone + Default,
-    Tx::Data: Default,
-    A: Application<Rx::Data, Tx::Data>,
+    R: RobotSet,
+    D: DeviceSet,
+    A: Application<R, D>,
     C: Clock,
-    M: Monitor<Rx, Tx>,
+    M: Monitor<R, D>,
 {
     let UdpBuffers {
         rx,
@@ -287,23 +285,21 @@ fn connected(socket: &TcpSocket<'_>) -> bool {
 /// stalls (M10, [`StallGuard`]) is closed and the waiting one served, so a
 /// half-open connection locks the controller out for `TimeOut` at most.
 #[allow(clippy::too_many_arguments)]
-pub async fn tcp_cycle<Rx, Tx, A, C, M, const SOCK: usize, const RX: usize, const TX: usize>(
+pub async fn tcp_cycle<R, D, A, C, M, const SOCK: usize, const RX: usize, const TX: usize>(
     stack: Stack<'_>,
     port: u16,
-    engine: &mut Engine<Rx, Tx>,
+    engine: &mut Engine<R, D>,
     app: &mut A,
     clock: &C,
     buffers: &mut TcpBuffers<SOCK, RX, TX>,
     monitor: &mut M,
 ) -> !
 where
-    Rx: MessageCodec,
-    Tx: MessageCodec,
-    Rx::Data: Clone + Default,
-    Tx::Data: Default,
-    A: Application<Rx::Data, Tx::Data>,
+    R: RobotSet,
+    D: DeviceSet,
+    A: Application<R, D>,
     C: Clock,
-    M: Monitor<Rx, Tx>,
+    M: Monitor<R, D>,
 {
     let TcpBuffers {
         rx,

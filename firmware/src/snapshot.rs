@@ -8,7 +8,7 @@
 //! watchers read the latest copy whenever they like.
 
 use crate::engine::{Endpoint, Engine, ErrorCode, SensorState, Stats};
-use crate::schema::MessageCodec;
+use crate::properties::{DeviceSet, RobotSet};
 use core::cell::Cell;
 use critical_section::Mutex;
 
@@ -26,13 +26,7 @@ pub struct Snapshot {
 
 impl Snapshot {
     /// The engine's state after turn number `heartbeat`.
-    pub fn of<Rx, Tx>(engine: &Engine<Rx, Tx>, heartbeat: u32) -> Self
-    where
-        Rx: MessageCodec,
-        Tx: MessageCodec,
-        Rx::Data: Clone + Default,
-        Tx::Data: Default,
-    {
+    pub fn of<R: RobotSet, D: DeviceSet>(engine: &Engine<R, D>, heartbeat: u32) -> Self {
         Snapshot {
             state: engine.state(),
             error: engine.error_code(),

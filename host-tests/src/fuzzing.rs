@@ -218,10 +218,12 @@ pub fn cycle(data: &[u8]) {
             ip: SOURCES[0].ip,
             port: (b & 16 != 0).then_some(SOURCES[0].port),
         }),
+        reply: 0,
         send_period_ms: if b & 32 != 0 { 4 } else { 0 },
+        periodic: &[],
         format: manual::FORMAT,
     };
-    let mut engine: Engine<manual::RobDataMessage, manual::SensDataMessage> = Engine::new(config);
+    let mut engine: Engine<manual::RobotProperties, manual::DeviceProperties> = Engine::new(config);
     engine.listening();
     let clock = StepClock(Cell::new(1_000_000));
     let mut out = [0u8; manual::MAX_SEND_LEN];

@@ -5,9 +5,10 @@
 
 use rri_firmware::demo::{simulated_distance, DemoApp};
 use rri_firmware::engine::{
-    Clock, Config, Endpoint, ErrorCode, Instant, Outcome, SensorState, Stats,
+    Clock, Config, Endpoint, Engine, ErrorCode, Instant, Outcome, SensorState, Stats,
 };
-use rri_firmware::layout::{self, DeviceEngine};
+use rri_firmware::layout;
+use rri_firmware::properties::{DeviceSet, RobotSet};
 use rri_firmware::sample::{Reading, SampleCell};
 use rri_firmware::tcp::{Framer, Stall, StallGuard};
 use std::io::{self, ErrorKind, Read, Write};
@@ -54,6 +55,8 @@ pub struct SensorOptions {
     pub config: Config,
     /// Print a statistics line this often (`None`: never).
     pub stats_every: Option<Duration>,
+    /// The device's name, for the log.
+    pub device_name: &'static str,
 }
 
 impl SensorOptions {
@@ -67,6 +70,7 @@ impl SensorOptions {
             tcp: !layout::CHANNEL_PROTOCOL.is_udp(),
             config: layout::ENGINE_CONFIG,
             stats_every: Some(Duration::from_secs(1)),
+            device_name: layout::DEVICE_NAME,
         }
     }
 }
@@ -125,18 +129,18 @@ fn endpoint(addr: SocketAddr) -> Option<Endpoint> {
 }
 
 /// Engine, application and bookkeeping of one run.
-struct Sensor<'a, 'w> {
-    engine: DeviceEngine,
+struct Sensor<'a, 'w, R: RobotSet, D: DeviceSet> {
+    engine: Engine<R, D>,
     app: DemoApp<'a>,
     clock: HostClock,
-    out: [u8; layout::MAX_SEND_LEN],
+    out: Vec<u8>,
     states: Vec<(f64, SensorState, Option<ErrorCode>)>,
     log: &'w mut dyn Write,
     last_stats: std::time::Instant,
     stats_every: Option<Duration>,
 }
 
-impl Sensor<'_, '_> {
+impl<R: RobotSet, D: DeviceSet> Sensor<'_, '_, R, D> {
     /// Logs a state change, if there was one.
     fn note_state(&mut self) {
         let now = (self.engine.state(), self.engine.error_code());
@@ -194,8 +198,27 @@ pub struct Background {
 }
 
 impl Background {
-    /// Starts it (UDP, or TCP) with `config`; waits until it listens.
+    /// Starts it (UDP, or TCP) with `config`, for the layout the firmware
+    /// was built for; waits until it listens.
     pub fn start(tcp: bool, config: Config) -> io::Result<Background> {
+        Self::start_layout::<
+            layout::RobotProperties,
+            layout::DeviceProperties,
+            { layout::MAX_RECEIVE_LEN },
+        >(tcp, config, layout::DEVICE_NAME)
+    }
+
+    /// Starts it for another layout (`host_tests::layouts`): its property
+    /// sets `R`, `D` and its `MAX_RECEIVE_LEN` as `RX`.
+    pub fn start_layout<R, D, const RX: usize>(
+        tcp: bool,
+        config: Config,
+        device_name: &'static str,
+    ) -> io::Result<Background>
+    where
+        R: RobotSet + Send + 'static,
+        D: DeviceSet + Send + 'static,
+    {
         let stop = Arc::new(AtomicBool::new(false));
         let (tx, rx) = mpsc::channel();
         let opts = SensorOptions {
@@ -203,9 +226,12 @@ impl Background {
             tcp,
             config,
             stats_every: None,
+            device_name,
         };
         let flag = stop.clone();
-        let thread = std::thread::spawn(move || run(&opts, &flag, Some(tx), &mut std::io::sink()));
+        let thread = std::thread::spawn(move || {
+            run_layout::<R, D, RX>(&opts, &flag, Some(tx), &mut std::io::sink())
+        });
         let addr = rx
             .recv_timeout(Duration::from_secs(5))
             .map_err(|_| io::Error::other("the sensor did not start listening"))?;
@@ -230,16 +256,29 @@ pub fn run(
     ready: Option<Sender<SocketAddr>>,
     log: &mut dyn Write,
 ) -> io::Result<SensorReport> {
+    run_layout::<layout::RobotProperties, layout::DeviceProperties, { layout::MAX_RECEIVE_LEN }>(
+        opts, stop, ready, log,
+    )
+}
+
+/// [`run`] for any layout: its property sets `R`, `D` and its
+/// `MAX_RECEIVE_LEN` as `RX` (the TCP framer's size).
+pub fn run_layout<R: RobotSet, D: DeviceSet, const RX: usize>(
+    opts: &SensorOptions,
+    stop: &AtomicBool,
+    ready: Option<Sender<SocketAddr>>,
+    log: &mut dyn Write,
+) -> io::Result<SensorReport> {
     let cell = SampleCell::<1>::new();
     let Some((mut sampler, reader)) = cell.split() else {
         return Err(io::Error::other("sample cell already split"));
     };
     let clock = HostClock::new();
     let mut sensor = Sensor {
-        engine: DeviceEngine::new(opts.config),
+        engine: Engine::<R, D>::new(opts.config),
         app: DemoApp::new(reader),
         clock,
-        out: [0; layout::MAX_SEND_LEN],
+        out: vec![0; D::MAX_SEND_LEN],
         states: Vec::new(),
         log,
         last_stats: std::time::Instant::now(),
@@ -260,7 +299,7 @@ pub fn run(
             }
         });
         let r = if opts.tcp {
-            serve_tcp(&mut sensor, opts, stop, ready)
+            serve_tcp::<R, D, RX>(&mut sensor, opts, stop, ready)
         } else {
             serve_udp(&mut sensor, opts, stop, ready)
         };
@@ -281,8 +320,8 @@ pub fn run(
     })
 }
 
-fn serve_udp(
-    sensor: &mut Sensor<'_, '_>,
+fn serve_udp<R: RobotSet, D: DeviceSet>(
+    sensor: &mut Sensor<'_, '_, R, D>,
     opts: &SensorOptions,
     stop: &AtomicBool,
     ready: Option<Sender<SocketAddr>>,
@@ -293,7 +332,7 @@ fn serve_udp(
     let _ = writeln!(
         sensor.log,
         "listening on udp {local} (device {})",
-        layout::DEVICE_NAME
+        opts.device_name
     );
     sensor.engine.listening();
     sensor.note_state();
@@ -302,7 +341,7 @@ fn serve_udp(
     }
     // One byte more than the layout allows, so a longer datagram is seen
     // as too long rather than silently cut.
-    let mut buf = [0u8; layout::MAX_RECEIVE_LEN + 1];
+    let mut buf = vec![0u8; R::MAX_RECEIVE_LEN + 1];
     while !stop.load(Ordering::Relaxed) {
         match socket.recv_from(&mut buf) {
             Ok((n, from)) => {
@@ -331,7 +370,12 @@ fn serve_udp(
 
 /// Sends the reply in `sensor.out`; a failure is counted and logged, never
 /// fatal (a controller that went away, a full socket buffer).
-fn send_udp(sensor: &mut Sensor<'_, '_>, socket: &UdpSocket, to: Endpoint, len: usize) {
+fn send_udp<R: RobotSet, D: DeviceSet>(
+    sensor: &mut Sensor<'_, '_, R, D>,
+    socket: &UdpSocket,
+    to: Endpoint,
+    len: usize,
+) {
     let to_addr = SocketAddr::from((to.ip, to.port));
     if let Err(e) = socket.send_to(&sensor.out[..len], to_addr) {
         sensor.engine.send_failed();
@@ -344,8 +388,8 @@ fn send_udp(sensor: &mut Sensor<'_, '_>, socket: &UdpSocket, to: Endpoint, len: 
     }
 }
 
-fn serve_tcp(
-    sensor: &mut Sensor<'_, '_>,
+fn serve_tcp<R: RobotSet, D: DeviceSet, const RX: usize>(
+    sensor: &mut Sensor<'_, '_, R, D>,
     opts: &SensorOptions,
     stop: &AtomicBool,
     ready: Option<Sender<SocketAddr>>,
@@ -356,7 +400,7 @@ fn serve_tcp(
     let _ = writeln!(
         sensor.log,
         "listening on tcp {local} (device {})",
-        layout::DEVICE_NAME
+        opts.device_name
     );
     if let Some(tx) = ready {
         let _ = tx.send(local);
@@ -382,7 +426,7 @@ fn serve_tcp(
                 let _ = writeln!(sensor.log, "connection from {peer}");
                 sensor.engine.listening();
                 sensor.note_state();
-                connection(sensor, &listener, &mut waiting, stream, peer, stop);
+                connection::<R, D, RX>(sensor, &listener, &mut waiting, stream, peer, stop);
                 sensor.engine.peer_closed();
                 sensor.note_state();
             }
@@ -408,21 +452,18 @@ enum End {
 /// One TCP connection: framed messages in (M10), replies out, until the
 /// peer closes, a framing error, a failed send, a stall (M10), or stop.
 /// Whatever happens on the connection ends at most the connection.
-fn connection(
-    sensor: &mut Sensor<'_, '_>,
+fn connection<R: RobotSet, D: DeviceSet, const RX: usize>(
+    sensor: &mut Sensor<'_, '_, R, D>,
     listener: &TcpListener,
     waiting: &mut Option<(TcpStream, SocketAddr)>,
     stream: TcpStream,
     peer: SocketAddr,
     stop: &AtomicBool,
 ) {
-    let end = serve_connection(sensor, listener, waiting, stream, peer, stop);
+    let end = serve_connection::<R, D, RX>(sensor, listener, waiting, stream, peer, stop);
     let why = match end {
         End::Stop | End::PeerClosed => return,
-        End::Framing => format!(
-            "framing error: message longer than {} bytes",
-            layout::MAX_RECEIVE_LEN
-        ),
+        End::Framing => format!("framing error: message longer than {RX} bytes"),
         End::SendFailed(e) => format!("reply not sent ({e})"),
         End::ReadFailed(e) => format!("read failed ({e})"),
         End::Stalled(Stall::Incomplete) => format!(
@@ -437,8 +478,8 @@ fn connection(
     let _ = writeln!(sensor.log, "closing the connection from {peer}: {why}");
 }
 
-fn serve_connection(
-    sensor: &mut Sensor<'_, '_>,
+fn serve_connection<R: RobotSet, D: DeviceSet, const RX: usize>(
+    sensor: &mut Sensor<'_, '_, R, D>,
     listener: &TcpListener,
     waiting: &mut Option<(TcpStream, SocketAddr)>,
     mut stream: TcpStream,
@@ -458,7 +499,7 @@ fn serve_connection(
     let Some(from) = endpoint(peer) else {
         return End::PeerClosed;
     };
-    let mut framer = Framer::<{ layout::MAX_RECEIVE_LEN }>::new();
+    let mut framer = Framer::<RX>::new();
     let mut guard = StallGuard::new(sensor.engine.config().timeout_ms, sensor.clock.now());
     let mut chunk = [0u8; 4096];
     let mut replies: Vec<Vec<u8>> = Vec::new();

@@ -424,10 +424,11 @@ const ROBOT: Endpoint = Endpoint::new([192, 168, 125, 1], 50_000);
 fn every_bad_datagram_has_its_outcome_and_the_next_message_is_answered() {
     let cases = catalogue();
     assert!(cases.len() >= 40, "{} cases", cases.len());
-    let mut engine: Engine<RobDataMessage, SensDataMessage> = Engine::new(Config {
-        dry_run: true,
-        ..layout::ENGINE_CONFIG
-    });
+    let mut engine: Engine<layout::RobotProperties, layout::DeviceProperties> =
+        Engine::new(Config {
+            dry_run: true,
+            ..layout::ENGINE_CONFIG
+        });
     engine.listening();
     let clock = Tick(Cell::new(0));
     let mut out = [0u8; layout::MAX_SEND_LEN];
@@ -479,7 +480,7 @@ fn every_bad_datagram_has_its_outcome_and_the_next_message_is_answered() {
             other => failures.push(format!("{}: the next good message got {other:?}", c.name)),
         }
         assert_eq!(
-            engine.robot().feedback_pose.x,
+            engine.robot().rob_data.feedback_pose.x,
             id as f32,
             "after {}: the good message's values are the device's",
             c.name

@@ -1,7 +1,7 @@
 //! The cycle engine driven by a fake clock through every S-rule scenario
 //! (PROTOCOL.md S1–S3, M8, M10), on the manual example's layout.
 
-use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMessage};
+use host_tests::layouts::anydevice::{self as layout, SensDataMessage};
 use rri_firmware::codec::DecodeErrorKind;
 use rri_firmware::engine::{
     Application, Clock, Config, CycleInfo, DropReason, Endpoint, Engine, ErrorCode, Instant,
@@ -10,7 +10,7 @@ use rri_firmware::engine::{
 use rri_firmware::tcp::{Framer, FramingError};
 use std::cell::Cell;
 
-type TestEngine = Engine<RobDataMessage, SensDataMessage>;
+type TestEngine = Engine<layout::RobotProperties, layout::DeviceProperties>;
 
 /// Device time under the test's control; every reading advances it by
 /// `step` µs, so the engine's receive → reply-ready time is measurable.
@@ -48,18 +48,18 @@ struct Probe {
     last_ts: Option<rri_firmware::value::Time>,
 }
 
-impl Application<layout::RobotData, layout::SensorData> for Probe {
+impl Application<layout::RobotProperties, layout::DeviceProperties> for Probe {
     fn cycle(
         &mut self,
-        robot: &layout::RobotData,
-        reply: &mut layout::SensorData,
+        robot: &layout::RobotProperties,
+        device: &mut layout::DeviceProperties,
         info: &CycleInfo<'_>,
     ) {
         self.calls += 1;
         self.last_id = info.robot_id;
         self.last_state = Some(info.state);
         self.last_ts = info.robot_ts;
-        reply.application_data[0] = robot.feedback_pose.x;
+        device.sens_data.application_data[0] = robot.rob_data.feedback_pose.x;
     }
 }
 
@@ -72,7 +72,9 @@ fn config() -> Config {
         max_lost: 3,
         dry_run: false,
         controller: None,
+        reply: 0,
         send_period_ms: 0,
+        periodic: &[],
         format: layout::FORMAT,
     }
 }
@@ -405,14 +407,14 @@ fn pinned_controller_is_the_only_one_answered() {
 fn decode_errors_are_counted_by_kind_and_change_nothing() {
     let mut rig = Rig::new(config());
     rig.send(ROBOT, 1, 0);
-    let before = *rig.engine.robot();
+    let before = rig.engine.robot().clone();
     let bad = br#"<RobData Id="2"><P_act X="99" Y="abc"/></RobData>"#;
     assert_eq!(
         rig.raw(ROBOT, bad, 4),
         Outcome::Dropped(DropReason::Decode(DecodeErrorKind::InvalidNumber))
     );
     assert_eq!(
-        *rig.engine.robot(),
+        rig.engine.robot().clone(),
         before,
         "X=99 of the rejected message is not kept"
     );

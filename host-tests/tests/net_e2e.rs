@@ -11,7 +11,7 @@ mod memnet;
 
 use embassy_net::StackResources;
 use embassy_time::{Duration, MockDriver};
-use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMessage};
+use host_tests::layouts::anydevice::{self as layout, SensDataMessage};
 use rri_firmware::codec::decode;
 use rri_firmware::demo::{simulated_distance, DemoApp};
 use rri_firmware::engine::{Clock, Engine, SensorState};
@@ -126,11 +126,11 @@ fn robot_receive(frame: &[u8], device_ip: [u8; 4], to_device: &Frames) -> Option
 /// which polls the stack and the task `n` times, 10 µs of mock time each,
 /// and the frames to the device and from it.
 fn with_udp_device<A>(
-    engine: &mut Engine<RobDataMessage, SensDataMessage>,
+    engine: &mut Engine<layout::RobotProperties, layout::DeviceProperties>,
     app: &mut A,
     body: impl FnOnce(&mut dyn FnMut(usize), &Frames, &Frames),
 ) where
-    A: rri_firmware::engine::Application<layout::RobotData, layout::SensorData>,
+    A: rri_firmware::engine::Application<layout::RobotProperties, layout::DeviceProperties>,
 {
     let _clock = memnet::mock_clock();
     MockDriver::get().reset();
@@ -174,7 +174,8 @@ fn thousand_cycles_over_embassy_net_with_real_frames() {
     let cell = SampleCell::<1>::new();
     let (mut sampler, reader) = cell.split().expect("split");
     let mut app = DemoApp::new(reader);
-    let mut engine: Engine<RobDataMessage, SensDataMessage> = Engine::new(layout::ENGINE_CONFIG);
+    let mut engine: Engine<layout::RobotProperties, layout::DeviceProperties> =
+        Engine::new(layout::ENGINE_CONFIG);
     let clock = EmbassyClock;
     with_udp_device(&mut engine, &mut app, |step, to_device, from_device| {
         let mut replies = 0;
@@ -266,13 +267,16 @@ fn thousand_cycles_over_embassy_net_with_real_frames() {
 /// replies do).
 struct WidestReply;
 
-impl rri_firmware::engine::Application<layout::RobotData, layout::SensorData> for WidestReply {
+impl rri_firmware::engine::Application<layout::RobotProperties, layout::DeviceProperties>
+    for WidestReply
+{
     fn cycle(
         &mut self,
-        _: &layout::RobotData,
-        reply: &mut layout::SensorData,
+        _: &layout::RobotProperties,
+        device: &mut layout::DeviceProperties,
         _: &rri_firmware::engine::CycleInfo<'_>,
     ) {
+        let reply = &mut device.sens_data;
         reply.error_string.clear();
         while reply.error_string.push('"').is_ok() {}
         reply.application_data = [-f32::MAX; 18];
@@ -356,7 +360,8 @@ impl Reassembly {
 fn robot_datagrams_longer_than_a_frame_arrive_in_ipv4_fragments_and_are_answered() {
     let device_ip = layout::NETWORK_IPV4.expect("the example's address is IPv4");
     let mut app = WidestReply;
-    let mut engine: Engine<RobDataMessage, SensDataMessage> = Engine::new(layout::ENGINE_CONFIG);
+    let mut engine: Engine<layout::RobotProperties, layout::DeviceProperties> =
+        Engine::new(layout::ENGINE_CONFIG);
     with_udp_device(&mut engine, &mut app, |step, to_device, from_device| {
         for (round, id) in [41u32, 42, 43].into_iter().enumerate() {
             // The manual's message padded to the layout's receive bound

@@ -10,7 +10,7 @@ mod memnet;
 use embassy_net::tcp::TcpSocket;
 use embassy_net::Stack;
 use embassy_time::{Duration, Timer};
-use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMessage};
+use host_tests::layouts::anydevice::{self as layout, SensDataMessage};
 use memnet::with_tcp_device;
 use rri_firmware::codec::decode;
 use rri_firmware::engine::{Config, Engine, SensorState};
@@ -18,7 +18,7 @@ use rri_firmware::tcp::Framer;
 use smoltcp::wire::Ipv4Address;
 use std::cell::Cell;
 
-type DeviceEngine = Engine<RobDataMessage, SensDataMessage>;
+type DeviceEngine = Engine<layout::RobotProperties, layout::DeviceProperties>;
 
 /// A short `TimeOut` (the stall rule's clock) so the tests stay quick.
 const TIMEOUT_MS: u32 = 100;

@@ -5,7 +5,7 @@ use std::fmt::Write;
 #[derive(Default)]
 pub struct Emitter {
     out: String,
-    indent: usize,
+    pub(crate) indent: usize,
 }
 
 impl Emitter {

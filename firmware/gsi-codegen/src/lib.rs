@@ -12,7 +12,10 @@
 
 mod emit;
 pub mod names;
+mod sets;
 pub mod sizes;
+
+pub use sets::{device_property, periodic, MAX_PROPERTIES};
 
 use emit::{str_lit, Emitter};
 use gsi_config::{Device, Diagnostic, Flag, Link, Pos, Rule, Severity, SimpleType, TypeRef};
@@ -31,9 +34,17 @@ pub struct Options {
     /// `RRI_CONTROLLER`: the pinned controller's IPv4 address and,
     /// optionally, the port periodic sends go to.
     pub controller: Option<([u8; 4], Option<u16>)>,
-    /// `RRI_SEND_PERIOD_MS`: periodic sends for one-way streams, a
-    /// multiple of 4 ms; 0 = off.
+    /// `RRI_SEND_PERIOD_MS`: periodic sends of the reply property for
+    /// one-way streams, a multiple of 4 ms; 0 = off.
     pub send_period_ms: u32,
+    /// `RRI_REPLY`: the reply property, as its position among the
+    /// properties the device sends ([`device_property`]); default 0, the
+    /// first.
+    pub reply: usize,
+    /// `RRI_PERIODIC`: (position among the properties the device sends,
+    /// period in ms) of the properties sent on their own schedules
+    /// ([`periodic`]).
+    pub periodic: Vec<(usize, u32)>,
 }
 
 impl Default for Options {
@@ -44,6 +55,8 @@ impl Default for Options {
             time_decimals: 3,
             controller: None,
             send_period_ms: 0,
+            reply: 0,
+            periodic: Vec::new(),
         }
     }
 }
@@ -87,6 +100,28 @@ fn idents(device: &Device, errors: &mut Vec<Diagnostic>) -> Idents {
         }
         ident
     };
+    // The per-direction sets (M11) take these names.
+    let first = device.properties.first().map_or(Pos::default(), |p| p.pos);
+    for (name, what) in [
+        (
+            "RobotProperty",
+            "the generated enum of the robot's properties",
+        ),
+        (
+            "RobotProperties",
+            "the generated struct of the robot's properties",
+        ),
+        (
+            "DeviceProperty",
+            "the generated enum of the device's properties",
+        ),
+        (
+            "DeviceProperties",
+            "the generated struct of the device's properties",
+        ),
+    ] {
+        claim(name.to_string(), what.to_string(), first, errors);
+    }
     let enums = device
         .enums
         .iter()
@@ -280,6 +315,36 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
         }
         message_sizes.push((enc, rcv.min(sizes::MAX_DATAGRAM)));
     }
+    for (dir, list) in [
+        (
+            "the controller sends",
+            device.received().collect::<Vec<_>>(),
+        ),
+        ("the device sends", device.sent().collect()),
+    ] {
+        if let Some(p) = list.get(MAX_PROPERTIES) {
+            errors.push(diag(
+                device,
+                p.pos,
+                Rule::G3,
+                format!(
+                    "more than {MAX_PROPERTIES} properties {dir}: the firmware serves at most {MAX_PROPERTIES} per direction"
+                ),
+            ));
+        }
+    }
+    let sent_count = device.sent().count();
+    let bad_index = |i: usize| sent_count > 0 && i >= sent_count;
+    if bad_index(opts.reply) || opts.periodic.iter().any(|&(i, _)| bad_index(i)) {
+        errors.push(diag(
+            device,
+            Pos::default(),
+            Rule::G3,
+            format!(
+                "RRI_REPLY / RRI_PERIODIC name a property beyond the {sent_count} the device sends"
+            ),
+        ));
+    }
     if !errors.is_empty() {
         return Err(errors);
     }
@@ -307,10 +372,37 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
     if !device.enums.is_empty() {
         schema.push("WireEnum");
     }
+    let has_rx = device.received().next().is_some();
+    let has_tx = device.sent().next().is_some();
+    let mut codec = Vec::new();
+    if has_tx {
+        codec.extend(["encode", "BufferTooSmall"]);
+    }
+    if has_rx {
+        codec.extend(["DecodeError", "Decoded"]);
+    }
+    if has_tx {
+        codec.push("Encoded");
+    }
+    e.use_list(&format!("{k}::codec"), &codec);
     e.use_list(
         &format!("{k}::engine"),
-        &["Config as EngineConfig", "Pinned"],
+        &["Config as EngineConfig", "Periodic", "Pinned"],
     );
+    let mut sets = Vec::new();
+    if has_rx {
+        sets.push("decode_committed");
+        if device.received().nth(1).is_some() {
+            sets.push("root_name");
+        }
+    }
+    if has_tx {
+        sets.push("DeviceSet");
+    }
+    if has_rx {
+        sets.push("RobotSet");
+    }
+    e.use_list(&format!("{k}::properties"), &sets);
     e.use_list(&format!("{k}::schema"), &schema);
     let used = |t: SimpleType| {
         let fields = device
@@ -328,7 +420,7 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
         (SimpleType::Time, "Time"),
     ]
     .into_iter()
-    .filter(|(t, _)| used(*t))
+    .filter(|(t, _)| used(*t) || (*t == SimpleType::Time && has_tx))
     .map(|(_, name)| name)
     .collect();
     e.use_list(&format!("{k}::value"), &values);
@@ -349,7 +441,7 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
     e.blank();
     emit_array_attrs(&mut e, device);
     e.blank();
-    emit_totals(&mut e, device, &id, &message_sizes, k);
+    emit_totals(&mut e, device, &id, &message_sizes, opts);
     Ok(e.finish())
 }
 
@@ -448,7 +540,13 @@ fn emit_settings(e: &mut Emitter, d: &Device, f: sizes::Format, opts: &Options) 
     e.line("max_lost: MAX_LOST,");
     e.line("dry_run: DRY_RUN,");
     e.line("controller: CONTROLLER,");
+    if d.sent().next().is_some() {
+        e.line("reply: REPLY.index(),");
+    } else {
+        e.line("reply: 0,");
+    }
     e.line("send_period_ms: SEND_PERIOD_MS,");
+    e.line("periodic: &PERIODIC,");
     e.line("format: FORMAT,");
     e.close(";");
 }
@@ -810,13 +908,7 @@ fn emit_array_attrs(e: &mut Emitter, d: &Device) {
     e.line("];");
 }
 
-fn emit_totals(
-    e: &mut Emitter,
-    d: &Device,
-    id: &Idents,
-    sizes: &[(usize, usize)],
-    opts_crate: &str,
-) {
+fn emit_totals(e: &mut Emitter, d: &Device, id: &Idents, sizes: &[(usize, usize)], opts: &Options) {
     let received: Vec<usize> = (0..d.properties.len())
         .filter(|&i| d.properties[i].flag.robot_sends())
         .collect();
@@ -841,20 +933,19 @@ fn emit_totals(
     let max_of = |idx: &[usize], pick: fn(&(usize, usize)) -> usize| {
         idx.iter().map(|&i| pick(&sizes[i])).max().unwrap_or(0)
     };
-    let first = |pick: &[usize]| pick.first().map(|&i| id.messages[i].clone());
-    if let Some(rx) = first(&received) {
-        e.doc("The message the cycle engine decodes: the first property the controller sends.");
-        e.line(format!("pub type RobotMessage = {rx};"));
+    if let Some(&rx) = received.first() {
+        e.doc("The first property the controller sends (the codec bench's message).");
+        e.line(format!("pub type RobotMessage = {};", id.messages[rx]));
     }
-    if let Some(tx) = first(&sent) {
-        e.doc("The message the cycle engine answers with: the first property the device sends.");
-        e.line(format!("pub type ReplyMessage = {tx};"));
+    if let Some(&tx) = sent.get(opts.reply) {
+        e.doc("The message every robot message is answered with (`RRI_REPLY`).");
+        e.line(format!("pub type ReplyMessage = {};", id.messages[tx]));
     }
     if !received.is_empty() && !sent.is_empty() {
         e.doc("The cycle engine for this device.");
         e.line(format!(
-            "pub type DeviceEngine = {}::engine::Engine<RobotMessage, ReplyMessage>;",
-            opts_crate
+            "pub type DeviceEngine = {}::engine::Engine<RobotProperties, DeviceProperties>;",
+            opts.crate_path
         ));
     }
     e.doc("Size of the receive buffer: the longest message the controller may send.");
@@ -868,4 +959,5 @@ fn emit_totals(
         "pub const MAX_SEND_LEN: usize = {};",
         max_of(&sent, |s| s.0)
     ));
+    sets::emit_sets(e, d, id, &received, &sent, opts.reply, &opts.periodic);
 }

@@ -22,7 +22,7 @@ use hal_board::board;
 use rri_firmware::codec::DecodeErrorKind;
 use rri_firmware::demo::{simulated_distance, DemoApp};
 use rri_firmware::engine::{Clock, Engine, Outcome, SensorState};
-use rri_firmware::layout::{self, DeviceEngine, ReplyMessage, RobotMessage};
+use rri_firmware::layout::{self, DeviceEngine, DeviceProperties, RobotProperties};
 use rri_firmware::net::{self, EmbassyClock, Monitor};
 use rri_firmware::network;
 use rri_firmware::sample::{Reading, SampleCell, SampleReader, SampleWriter};
@@ -201,7 +201,7 @@ impl Publisher {
     }
 }
 
-impl Monitor<RobotMessage, ReplyMessage> for Publisher {
+impl Monitor<RobotProperties, DeviceProperties> for Publisher {
     #[cfg(feature = "bench")]
     fn count(&self) -> u32 {
         board::cycle_counter()

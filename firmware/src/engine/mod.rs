@@ -4,9 +4,11 @@
 //! `(source, bytes, receive time)` and gets back the reply's length in its
 //! own buffer and where to send it, or a counted reason for silence.
 //!
-//! One cycle: peer check → decode (into a copy of the last good record) →
-//! Id accounting and supervision → the application → encode (the robot's
-//! `Id`, `Ts` from the device clock) → back to the transport.
+//! One cycle: peer check → decode (the property the root names, into a
+//! copy of its last good value) → Id accounting and supervision → the
+//! application → encode the reply property (the robot's `Id`, `Ts` from the
+//! device clock) → back to the transport. Every property the controller
+//! sends is answered the same way (M11).
 
 mod ids;
 mod peer;
@@ -14,14 +16,14 @@ mod state;
 mod stats;
 mod time;
 
-pub use ids::{IdEvent, IdTracker};
+pub use ids::{ChannelIds, IdEvent, IdTracker};
 pub use peer::{Admit, Endpoint, PeerChange, PeerFilter, Pinned};
 pub use state::{ErrorCode, SensorState};
 pub use stats::{DropReason, Histogram, Stats};
 pub use time::{Clock, Instant};
 
-use crate::codec::{decode, encode};
-use crate::schema::{Format, MessageCodec};
+use crate::properties::{DeviceSet, RobotSet, MAX_PROPERTIES};
+use crate::schema::Format;
 use crate::value::Time;
 use stats::{add, bump};
 
@@ -38,9 +40,26 @@ pub struct Config {
     pub dry_run: bool,
     /// `RRI_CONTROLLER`: only this address is ever answered.
     pub controller: Option<Pinned>,
-    /// `RRI_SEND_PERIOD_MS`: periodic sends for one-way streams (0 = off).
+    /// `RRI_REPLY`: the device property every robot message is answered
+    /// with (its index among the device's properties).
+    pub reply: usize,
+    /// `RRI_SEND_PERIOD_MS`: the reply property sent unprompted, for
+    /// one-way streams (0 = off).
     pub send_period_ms: u32,
+    /// `RRI_PERIODIC`: device properties sent on their own schedules (for
+    /// `SiGetCyclic` subscriptions of other data); at most
+    /// [`MAX_PROPERTIES`] entries are served.
+    pub periodic: &'static [Periodic],
     pub format: Format,
+}
+
+/// A device property sent every `period_ms` (a multiple of 4 ms) once a
+/// controller is known, Id from the device's own sequence.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Periodic {
+    /// Index among the device's properties.
+    pub property: usize,
+    pub period_ms: u32,
 }
 
 /// What the application sees each cycle besides the data.
@@ -53,20 +72,27 @@ pub struct CycleInfo<'a> {
     pub robot_id: Option<u32>,
     /// The robot's `Ts` of the last message (T2: its own clock).
     pub robot_ts: Option<Time>,
+    /// The robot property this message carried (its index, see the
+    /// generated `RobotProperty`); `None` for a periodic send.
+    pub arrived: Option<usize>,
+    /// The device property about to be sent (see `DeviceProperty`).
+    pub sending: usize,
     pub stats: &'a Stats,
 }
 
-/// The user's sensor code. Called once per cycle with the decoded robot
-/// data and the reply record to fill (it keeps last cycle's values). It
-/// must return well within the cycle: the engine never waits for anything
-/// else, and the sampling itself runs elsewhere (see [`crate::sample`]).
-pub trait Application<R, T> {
-    fn cycle(&mut self, robot: &R, reply: &mut T, info: &CycleInfo<'_>);
+/// The user's sensor code. Called once per sent message with every robot
+/// property's last good value and every device property to fill (they
+/// keep their values between calls); `info` says which robot property just
+/// arrived and which device property goes out. It must return well within
+/// the cycle: the engine never waits for anything else, and the sampling
+/// itself runs elsewhere (see [`crate::sample`]).
+pub trait Application<R, D> {
+    fn cycle(&mut self, robot: &R, device: &mut D, info: &CycleInfo<'_>);
 }
 
 /// An application that leaves the reply as it is (tests, bring-up).
-impl<R, T> Application<R, T> for () {
-    fn cycle(&mut self, _: &R, _: &mut T, _: &CycleInfo<'_>) {}
+impl<R, D> Application<R, D> for () {
+    fn cycle(&mut self, _: &R, _: &mut D, _: &CycleInfo<'_>) {}
 }
 
 /// The result of one message.
@@ -78,24 +104,26 @@ pub enum Outcome {
     Dropped(DropReason),
 }
 
-/// The engine for robot messages `Rx` answered with `Tx` (generated as
-/// `layout::DeviceEngine`).
-pub struct Engine<Rx: MessageCodec, Tx: MessageCodec> {
+/// The engine for a device whose controller sends the properties of `R`
+/// and which sends those of `D` (generated as `layout::DeviceEngine`).
+pub struct Engine<R: RobotSet, D: DeviceSet> {
     config: Config,
     state: SensorState,
     error: Option<ErrorCode>,
     peers: PeerFilter,
-    ids: IdTracker,
+    ids: ChannelIds<MAX_PROPERTIES>,
     stats: Stats,
-    /// The last good robot record: a field a message leaves out keeps
-    /// this value (M2).
-    robot: Rx::Data,
+    /// The last good value of every robot property: a field a message
+    /// leaves out keeps this value (M2).
+    robot: R,
     /// Decoding target, so a rejected message changes nothing.
-    work: Rx::Data,
-    reply: Tx::Data,
+    work: R,
+    device: D,
     last_rx: Option<Instant>,
     robot_ts: Option<Time>,
-    next_send: Option<Instant>,
+    /// When each schedule's next periodic send is due: slot 0 is the reply
+    /// property's (`send_period_ms`), slot `k` is `periodic[k - 1]`.
+    next_send: [Option<Instant>; SCHEDULES],
     own_id: u32,
     /// When a source other than the peer was last let through to the
     /// decoder ([`STRANGER_INTERVAL_MS`]).
@@ -112,27 +140,24 @@ pub struct Engine<Rx: MessageCodec, Tx: MessageCodec> {
 /// cycle. One robot cycle: at most one stranger's decode per cycle.
 pub const STRANGER_INTERVAL_MS: u64 = 4;
 
-impl<Rx, Tx> Engine<Rx, Tx>
-where
-    Rx: MessageCodec,
-    Tx: MessageCodec,
-    Rx::Data: Clone + Default,
-    Tx::Data: Default,
-{
+/// Periodic schedules: the reply property's and one per `periodic` entry.
+const SCHEDULES: usize = MAX_PROPERTIES + 1;
+
+impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
     pub fn new(config: Config) -> Self {
         Engine {
             config,
             state: SensorState::Undefined,
             error: None,
             peers: PeerFilter::new(config.controller, config.timeout_ms),
-            ids: IdTracker::default(),
+            ids: ChannelIds::new(),
             stats: Stats::default(),
-            robot: Rx::Data::default(),
-            work: Rx::Data::default(),
-            reply: Tx::Data::default(),
+            robot: R::default(),
+            work: R::default(),
+            device: D::default(),
             last_rx: None,
             robot_ts: None,
-            next_send: None,
+            next_send: [None; SCHEDULES],
             own_id: 0,
             stranger_at: None,
         }
@@ -160,9 +185,20 @@ where
         self.peers.peer()
     }
 
-    /// The last good robot record.
-    pub fn robot(&self) -> &Rx::Data {
+    /// The last good value of every robot property.
+    pub fn robot(&self) -> &R {
         &self.robot
+    }
+
+    /// The device properties as the application last left them.
+    pub fn device(&self) -> &D {
+        &self.device
+    }
+
+    /// `true` once the controller has been seen numbering each robot
+    /// property on its own instead of in one sequence (M11).
+    pub fn ids_per_property(&self) -> bool {
+        self.ids.numbers_per_property()
     }
 
     fn set_state(&mut self, state: SensorState, error: Option<ErrorCode>) {
@@ -221,7 +257,7 @@ where
     /// One robot message from `from`, received at `received`. The reply
     /// (if any) is written to the start of `out`, which should be
     /// `layout::MAX_SEND_LEN` bytes.
-    pub fn on_message<A: Application<Rx::Data, Tx::Data>, C: Clock>(
+    pub fn on_message<A: Application<R, D>, C: Clock>(
         &mut self,
         app: &mut A,
         clock: &C,
@@ -247,7 +283,7 @@ where
         }
     }
 
-    fn handle<A: Application<Rx::Data, Tx::Data>, C: Clock>(
+    fn handle<A: Application<R, D>, C: Clock>(
         &mut self,
         app: &mut A,
         clock: &C,
@@ -272,10 +308,10 @@ where
             }
             self.stranger_at = Some(received);
         }
-        self.work.clone_from(&self.robot);
-        let decoded =
-            decode::<Rx>(bytes, &mut self.work).map_err(|e| DropReason::Decode(e.kind))?;
-        core::mem::swap(&mut self.work, &mut self.robot);
+        let (property, decoded) = self
+            .robot
+            .decode(&mut self.work, bytes)
+            .map_err(|e| DropReason::Decode(e.kind))?;
         self.stats.count_tally(&decoded.tally);
 
         match self.peers.accept(from, received) {
@@ -298,43 +334,53 @@ where
         if decoded.ts.is_some() {
             self.robot_ts = decoded.ts;
         }
-        self.account(decoded.id);
-        self.respond(app, clock, Some(decoded.id), decoded.id, out)
+        self.account(property, decoded.id);
+        let reply = Send {
+            property: self.config.reply,
+            id: decoded.id,
+            arrived: Some(property),
+        };
+        self.respond(app, clock, reply, out)
     }
 
-    /// The application's turn, then the reply (Id `id`, `Ts` now) into
-    /// `out`: the common tail of an answer and a periodic send.
-    fn respond<A: Application<Rx::Data, Tx::Data>, C: Clock>(
+    /// The application's turn, then `send` (`Ts` now) into `out`: the
+    /// common tail of an answer and a periodic send.
+    fn respond<A: Application<R, D>, C: Clock>(
         &mut self,
         app: &mut A,
         clock: &C,
-        robot_id: Option<u32>,
-        id: u32,
+        send: Send,
         out: &mut [u8],
     ) -> Result<usize, DropReason> {
         let info = CycleInfo {
             state: self.state,
             now: clock.now(),
-            robot_id,
+            robot_id: send.arrived.map(|_| send.id),
             robot_ts: self.robot_ts,
+            arrived: send.arrived,
+            sending: send.property,
             stats: &self.stats,
         };
-        app.cycle(&self.robot, &mut self.reply, &info);
-        let e = encode::<Tx>(
-            &self.reply,
-            id,
-            clock.now().as_time(),
-            self.config.format,
-            out,
-        )
-        .map_err(|_| DropReason::Encode)?;
+        app.cycle(&self.robot, &mut self.device, &info);
+        let e = self
+            .device
+            .encode(
+                send.property,
+                send.id,
+                clock.now().as_time(),
+                self.config.format,
+                out,
+            )
+            .map_err(|_| DropReason::Encode)?;
         add(&mut self.stats.non_finite, e.non_finite.into());
         Ok(e.len)
     }
 
-    /// S3 accounting and the S2 transitions a good message drives.
-    fn account(&mut self, id: u32) {
-        let burst = match self.ids.observe(id) {
+    /// S3 accounting (over all robot properties, M11) and the S2
+    /// transitions a good message drives.
+    fn account(&mut self, property: usize, id: u32) {
+        let several = R::WIRE_NAMES.len() > 1;
+        let burst = match self.ids.observe(several, property, id) {
             IdEvent::First => false,
             IdEvent::Next { wrapped } => {
                 if wrapped {
@@ -373,9 +419,11 @@ where
     }
 
     /// Time-driven work, to be called at least every few milliseconds:
-    /// the `TimeOut` supervision (S1/S2) and, for one-way streams, the
-    /// periodic send. Returns a message to send, if one is due.
-    pub fn poll<A: Application<Rx::Data, Tx::Data>, C: Clock>(
+    /// the `TimeOut` supervision (S1/S2) and the periodic sends (the reply
+    /// property for one-way streams, `periodic` properties). Returns a
+    /// message to send, if one is due; when several are due at once, the
+    /// others go out on the next calls.
+    pub fn poll<A: Application<R, D>, C: Clock>(
         &mut self,
         app: &mut A,
         clock: &C,
@@ -393,31 +441,69 @@ where
         self.periodic(app, clock, now, out)
     }
 
-    fn periodic<A: Application<Rx::Data, Tx::Data>, C: Clock>(
+    /// Schedule `slot` (device property `property` every `period_ms`, 0 =
+    /// off): its due time, set to `now` the first time it is looked at;
+    /// `best` or this schedule, whichever is due and more overdue, as
+    /// (slot, property, period µs, due).
+    fn due(
+        &mut self,
+        slot: usize,
+        property: usize,
+        period_ms: u32,
+        now: Instant,
+        best: Option<(usize, usize, u64, Instant)>,
+    ) -> Option<(usize, usize, u64, Instant)> {
+        let next = match self.next_send.get_mut(slot) {
+            Some(next) if period_ms > 0 => next,
+            _ => return best,
+        };
+        let due = *next.get_or_insert(now);
+        if due <= now && best.is_none_or(|b| due < b.3) {
+            Some((slot, property, u64::from(period_ms) * 1000, due))
+        } else {
+            best
+        }
+    }
+
+    fn periodic<A: Application<R, D>, C: Clock>(
         &mut self,
         app: &mut A,
         clock: &C,
         now: Instant,
         out: &mut [u8],
     ) -> Option<(Endpoint, usize)> {
-        let period_us = u64::from(self.config.send_period_ms) * 1000;
-        if period_us == 0 || matches!(self.state, SensorState::Undefined | SensorState::Closed) {
+        if matches!(self.state, SensorState::Undefined | SensorState::Closed) {
             return None;
         }
         let to = self.peers.destination()?;
-        let due = *self.next_send.get_or_insert(now);
-        if now < due {
-            return None;
+        // The most overdue schedule goes first, so one that is always due
+        // cannot starve the others. With one device property there is
+        // nothing but the reply to send (a compile-time constant:
+        // single-property firmware carries no table walk).
+        let config = self.config;
+        let mut chosen = self.due(0, config.reply, config.send_period_ms, now, None);
+        if D::WIRE_NAMES.len() > 1 {
+            for (k, p) in config.periodic.iter().take(MAX_PROPERTIES).enumerate() {
+                chosen = self.due(k + 1, p.property, p.period_ms, now, chosen);
+            }
         }
+        let (slot, property, period_us, due) = chosen?;
         // The next slot; after a stall, resume from now instead of bursting.
-        let next = due.0.saturating_add(period_us);
-        self.next_send = Some(Instant(if next <= now.0 {
-            now.0 + period_us
-        } else {
-            next
-        }));
+        let following = due.0.saturating_add(period_us);
+        if let Some(next) = self.next_send.get_mut(slot) {
+            *next = Some(Instant(if following <= now.0 {
+                now.0.saturating_add(period_us)
+            } else {
+                following
+            }));
+        }
         self.own_id = self.own_id.wrapping_add(1);
-        match self.respond(app, clock, None, self.own_id, out) {
+        let send = Send {
+            property,
+            id: self.own_id,
+            arrived: None,
+        };
+        match self.respond(app, clock, send, out) {
             Ok(len) => {
                 bump(&mut self.stats.sent);
                 bump(&mut self.stats.periodic_sent);
@@ -429,4 +515,13 @@ where
             }
         }
     }
+}
+
+/// One message to send: which device property, with which `Id`, and the
+/// robot property it answers (`None`: a periodic send).
+#[derive(Clone, Copy, Debug)]
+struct Send {
+    property: usize,
+    id: u32,
+    arrived: Option<usize>,
 }

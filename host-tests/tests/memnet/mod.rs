@@ -7,7 +7,7 @@
 use embassy_net::{Ipv4Cidr, Stack, StackResources, StaticConfigV4};
 use embassy_net_driver::{Capabilities, Driver, HardwareAddress, LinkState, RxToken, TxToken};
 use embassy_time::{Duration, MockDriver};
-use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMessage};
+use host_tests::layouts::anydevice as layout;
 use rri_firmware::engine::{Application, Engine};
 use rri_firmware::net::{tcp_cycle, EmbassyClock, TcpBuffers};
 use smoltcp::wire::Ipv4Address;
@@ -110,13 +110,13 @@ pub fn mock_clock() -> std::sync::MutexGuard<'static, ()> {
 }
 
 pub fn with_tcp_device<A, F>(
-    engine: &mut Engine<RobDataMessage, SensDataMessage>,
+    engine: &mut Engine<layout::RobotProperties, layout::DeviceProperties>,
     app: &mut A,
     robot: impl FnOnce(Stack<'static>) -> F,
     max_steps: usize,
 ) -> bool
 where
-    A: Application<layout::RobotData, layout::SensorData>,
+    A: Application<layout::RobotProperties, layout::DeviceProperties>,
     F: Future<Output = ()>,
 {
     let _clock = mock_clock();
