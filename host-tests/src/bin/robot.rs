@@ -1,6 +1,6 @@
 //! `cargo robot -- --gsi DIR [--device NAME] --to ADDR [--cycles N]
-//! [--rate-ms 4] [--tcp] [--csv FILE] [--plot FILE.svg|.png] [--pcap FILE]
-//! [--json FILE] [--fault SPEC]…`
+//! [--rate-ms 4] [--send NAME=MS]… [--reply NAME] [--tcp] [--csv FILE]
+//! [--plot FILE.svg|.png] [--pcap FILE] [--json FILE] [--fault SPEC]…`
 //!
 //! Plays the robot controller against any RRI sensor. Exit status 0 if and
 //! only if supervision never tripped and every reply was correct; 1 with
@@ -14,14 +14,25 @@ use std::process::ExitCode;
 
 const USAGE: &str =
     "usage: cargo robot -- --gsi DIR [--device NAME] --to ADDR:PORT [--cycles N] [--rate-ms 4]
+                    [--send NAME=MS]... [--reply NAME]
                     [--tcp] [--csv FILE] [--plot FILE.svg|FILE.png] [--pcap FILE] [--json FILE]
-                    [--fault SPEC]... [--seed N] [--first-id N] [--no-pacing] [--no-progress]";
+                    [--fault SPEC]... [--seed N] [--first-id N] [--no-pacing] [--no-progress]
+
+--send NAME=MS: send property NAME every MS ms (one SiSetCyclic each; repeat
+  for several, all in one Id sequence); default: the first property the
+  controller sends, every --rate-ms. --cycles then counts cycles of the
+  greatest common period.
+--reply NAME: the property the device answers with (its RRI_REPLY; default
+  $RRI_REPLY, else the first property the device sends).";
 
 fn parse(args: &[String]) -> Result<RobotOptions, String> {
     let mut gsi = None;
     let mut to = None;
     let mut o = RobotOptions::new(PathBuf::new(), "127.0.0.1:3002".parse().map_err(|_| "")?);
     o.progress = std::io::stderr().is_terminal();
+    o.reply = std::env::var("RRI_REPLY")
+        .ok()
+        .filter(|v| !v.trim().is_empty());
     let mut i = 0;
     while i < args.len() {
         let flag = args[i].as_str();
@@ -53,6 +64,18 @@ fn parse(args: &[String]) -> Result<RobotOptions, String> {
                     ));
                 }
             }
+            "--send" => {
+                let v = value()?;
+                let (name, ms) = v
+                    .split_once('=')
+                    .ok_or_else(|| format!("--send {v}: expected NAME=MS, e.g. RobData=4"))?;
+                let ms = ms
+                    .trim()
+                    .parse()
+                    .map_err(|_| format!("--send {v}: MS is a number of milliseconds"))?;
+                o.sends.push((name.trim().to_string(), ms));
+            }
+            "--reply" => o.reply = Some(value()?),
             "--tcp" => o.tcp = true,
             "--csv" => o.csv = Some(value()?.into()),
             "--plot" => {

@@ -1,11 +1,14 @@
 //! The robot-controller simulator: plays the IRC5 side of RRI as the manual
 //! describes, against any sensor, from a GSI folder read at run time.
 //!
-//! Every `rate` ms it sends the controller's property with changing data,
-//! checks each reply (M8 Id echo, root and fields against the layout,
-//! decodable values), supervises like the controller (S1: `TimeOut`,
-//! `MaxLost`, `DryRun`), and summarises: sent, answered, late, lost, wrong
-//! Id, malformed, latency percentiles.
+//! Every `rate` ms it sends the controller's property with changing data
+//! (or, with `--send NAME=MS`, several properties each at its own rate, in
+//! one Id sequence as a controller numbers one channel, M11), checks each
+//! reply (M8 Id echo, the reply property's root and fields against the
+//! layout, decodable values), accepts the device's periodic properties,
+//! supervises like the controller (S1: `TimeOut`, `MaxLost`, `DryRun`), and
+//! summarises: sent, answered, late, lost, wrong Id, malformed, latency
+//! percentiles, and per property.
 
 pub mod fault;
 pub mod motion;
@@ -16,7 +19,7 @@ pub mod wire;
 use fault::{Fault, Faults};
 use gsi_config::{Device, Property};
 use motion::Motion;
-use report::{Cycle, Latency, Packet, Summary};
+use report::{Cycle, Latency, Packet, PropertyFigures, Summary};
 use std::collections::HashMap;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{SocketAddr, TcpStream, UdpSocket};
@@ -34,6 +37,13 @@ pub struct RobotOptions {
     pub cycles: u64,
     /// Send period, a multiple of 4 ms.
     pub rate_ms: u32,
+    /// `--send NAME=MS`: the properties to send, each every MS ms (one
+    /// `SiSetCyclic` each). Empty: the first property the controller sends,
+    /// every `rate_ms`.
+    pub sends: Vec<(String, u32)>,
+    /// `--reply NAME`: the property the device answers with (the device's
+    /// `RRI_REPLY`); `None`: the first property the device sends.
+    pub reply: Option<String>,
     /// `false`: send the next message as soon as the last one is answered
     /// (tests); latencies still count as late beyond one `rate_ms` cycle.
     pub pacing: bool,
@@ -60,6 +70,8 @@ impl RobotOptions {
             to,
             cycles: 1000,
             rate_ms: 4,
+            sends: Vec::new(),
+            reply: None,
             pacing: true,
             tcp: false,
             csv: None,
@@ -212,6 +224,8 @@ struct Sim<'a> {
     opts: &'a RobotOptions,
     device: &'a Device,
     reply_prop: &'a Property,
+    /// Replies and periodic messages by device property name.
+    received: HashMap<String, u64>,
     link: Link,
     start: Instant,
     cycles: Vec<Cycle>,
@@ -264,7 +278,7 @@ impl Sim<'_> {
 
     /// Messages older than one cycle still without an answer.
     fn unanswered(&self, now: Instant) -> usize {
-        let cycle = Duration::from_millis(u64::from(self.opts.rate_ms));
+        let cycle = Duration::from_millis(u64::from(self.s.rate_ms));
         self.waiting
             .values()
             .filter(|w| !w.answered && now.duration_since(w.sent) > cycle)
@@ -332,6 +346,25 @@ impl Sim<'_> {
                 payload: bytes.to_vec(),
             });
         }
+        // M11: a device property other than the reply is a periodic send
+        // (its own Id sequence): checked and counted, not matched.
+        let root = wire::root_name(bytes);
+        let other = self
+            .device
+            .sent()
+            .find(|p| root.as_deref() == Some(p.wire()) && p.wire() != self.reply_prop.wire());
+        if let Some(prop) = other {
+            match wire::check_reply(self.device, prop, bytes) {
+                Ok(_) => *self.received.entry(prop.name.clone()).or_default() += 1,
+                Err(e) => {
+                    self.s.malformed += 1;
+                    self.s
+                        .first_error
+                        .get_or_insert(format!("<{}>: {e}", prop.wire()));
+                }
+            }
+            return;
+        }
         let reply = match wire::check_reply(self.device, self.reply_prop, bytes) {
             Ok(r) => r,
             Err(e) => {
@@ -340,6 +373,10 @@ impl Sim<'_> {
                 return;
             }
         };
+        *self
+            .received
+            .entry(self.reply_prop.name.clone())
+            .or_default() += 1;
         let Some(w) = self.waiting.get_mut(&reply.id) else {
             self.s.wrong_id += 1;
             self.sup.wrong_in_row += 1;
@@ -357,7 +394,7 @@ impl Sim<'_> {
             let sent = w.sent;
             self.cycles[index].reply_us = Some(self.us(at));
             self.s.answered += 1;
-            if at.duration_since(sent) > Duration::from_millis(u64::from(self.opts.rate_ms)) {
+            if at.duration_since(sent) > Duration::from_millis(u64::from(self.s.rate_ms)) {
                 self.s.late += 1;
                 self.sup.late_in_row += 1;
             }
@@ -421,6 +458,65 @@ pub fn load(opts: &RobotOptions) -> Result<Device, String> {
         .map_err(|f| f.to_string())
 }
 
+/// `name` among `props` by Name or Alias, in any case (G4), or why not.
+fn find_property<'d>(
+    device: &'d Device,
+    name: &str,
+    robot_sends: bool,
+) -> Result<&'d Property, String> {
+    let named = |p: &&Property| {
+        p.name.eq_ignore_ascii_case(name.trim()) || p.wire().eq_ignore_ascii_case(name.trim())
+    };
+    let (list, who): (Vec<&Property>, &str) = if robot_sends {
+        (device.received().collect(), "the controller sends")
+    } else {
+        (device.sent().collect(), "the device sends")
+    };
+    list.iter().copied().find(named).ok_or_else(|| {
+        let choices: Vec<&str> = list.iter().map(|p| p.name.as_str()).collect();
+        format!(
+            "no property \"{}\" that {who} in {}; choose one of: {}",
+            name.trim(),
+            device.name,
+            choices.join(", ")
+        )
+    })
+}
+
+/// The properties to send and their periods (M11): `--send`, or the first
+/// robot property every `--rate-ms`.
+fn sends<'d>(opts: &RobotOptions, device: &'d Device) -> Result<Vec<(&'d Property, u32)>, String> {
+    if opts.sends.is_empty() {
+        let first = device.received().next().ok_or(
+            "the configuration has no property the controller sends (Flag WriteOnly or ReadWrite)",
+        )?;
+        return Ok(vec![(first, opts.rate_ms)]);
+    }
+    let mut out: Vec<(&Property, u32)> = Vec::new();
+    for (name, ms) in &opts.sends {
+        let p =
+            find_property(device, name, true).map_err(|e| format!("--send {name}={ms}: {e}"))?;
+        if *ms == 0 || !ms.is_multiple_of(4) {
+            return Err(format!(
+                "--send {name}={ms}: the period must be a positive multiple of 4 ms"
+            ));
+        }
+        if out.iter().any(|(q, _)| q.name == p.name) {
+            return Err(format!("--send {name}: given twice"));
+        }
+        out.push((p, *ms));
+    }
+    Ok(out)
+}
+
+fn gcd(a: u32, b: u32) -> u32 {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
+}
+
 /// Runs the simulation; `log` gets state transitions.
 pub fn run(
     opts: &RobotOptions,
@@ -433,13 +529,17 @@ pub fn run(
             opts.rate_ms
         ));
     }
-    let robot_prop = device.received().next().ok_or(
-        "the configuration has no property the controller sends (Flag WriteOnly or ReadWrite)",
-    )?;
-    let reply_prop = device
-        .sent()
-        .next()
-        .ok_or("the configuration has no property the device sends (Flag ReadOnly or ReadWrite)")?;
+    let sends = sends(opts, device)?;
+    // One controller cycle of the simulation: every period is a multiple.
+    let tick_ms = sends.iter().fold(0, |g, &(_, ms)| gcd(g, ms));
+    let reply_prop = match &opts.reply {
+        Some(name) => {
+            find_property(device, name, false).map_err(|e| format!("--reply {name}: {e}"))?
+        }
+        None => device.sent().next().ok_or(
+            "the configuration has no property the device sends (Flag ReadOnly or ReadWrite)",
+        )?,
+    };
     let faults = Faults::new(opts.faults.clone(), opts.seed);
     if opts.tcp {
         if let Some(f) = faults.udp_only() {
@@ -476,6 +576,7 @@ pub fn run(
         opts,
         device,
         reply_prop,
+        received: HashMap::new(),
         link,
         start,
         cycles: Vec::with_capacity(opts.cycles as usize),
@@ -495,7 +596,7 @@ pub fn run(
             device: device.name.clone(),
             target: opts.to.to_string(),
             transport: if opts.tcp { "TCP" } else { "UDP" }.into(),
-            rate_ms: opts.rate_ms,
+            rate_ms: tick_ms,
             cycles: opts.cycles,
             ..Summary::default()
         },
@@ -503,11 +604,15 @@ pub fn run(
         log,
         bar,
     };
+    let sending: Vec<String> = sends
+        .iter()
+        .map(|(p, ms)| format!("{} every {ms} ms", p.wire()))
+        .collect();
     sim.transition(&format!(
         "CONNECTED to {} ({}, {} over {}, DryRun={}, TimeOut={} ms, MaxLost={})",
         device.name,
         opts.to,
-        robot_prop.wire(),
+        sending.join(", "),
         sim.s.transport,
         device.supervision.dry_run,
         device.supervision.timeout_ms,
@@ -515,105 +620,117 @@ pub fn run(
     ));
     let motion = Motion::new(device);
     let mut faults = faults;
-    let rate = Duration::from_millis(u64::from(opts.rate_ms));
+    let tick = Duration::from_millis(u64::from(tick_ms));
     let mut schedule = start;
     let mut held: Option<(u32, String, bool)> = None;
-    let mut previous: Option<u32> = None;
+    // Ids of the last tick's messages, oldest first.
+    let mut previous: Vec<u32> = Vec::new();
+    // Messages sent so far: the next Id (one sequence, M11) and the fault
+    // plan's index.
+    let mut m: u64 = 0;
     for c in 0..opts.cycles {
-        let plan = faults.plan(c);
-        if plan.pause_ms > 0 {
-            sim.transition(&format!("pausing {} ms (fault)", plan.pause_ms));
-            let resume = Instant::now() + Duration::from_millis(plan.pause_ms);
-            sim.pump(resume, None);
-            schedule = Instant::now();
-        }
         if opts.pacing {
             sim.pump(schedule, None);
-            schedule += rate;
+            schedule += tick;
         }
-        // S1 at send time: was the last message answered within its cycle?
-        if let Some(prev) = previous.take() {
-            let answered = sim.waiting.get(&prev).is_none_or(|w| w.answered);
-            if answered {
+        // S1 at send time: were the last cycle's messages answered within
+        // it? An answered one ends a run of unanswered ones.
+        for prev in previous.drain(..) {
+            if sim.waiting.get(&prev).is_none_or(|w| w.answered) {
                 sim.sup.in_row = 0;
                 sim.sup.wrong_in_row = 0;
                 sim.sup.late_in_row = 0;
             } else {
                 sim.sup.in_row += 1;
             }
-            if sim.sup.in_row > sim.sup.max_lost {
-                let n = sim.sup.max_lost;
-                let cause = if sim.sup.wrong_in_row > 0 {
-                    format!("{} replies carried a wrong Id (M8)", sim.sup.wrong_in_row)
-                } else if sim.sup.late_in_row > 0 {
-                    format!("{} replies came later than one cycle", sim.sup.late_in_row)
-                } else {
-                    "no reply at all".to_string()
-                };
-                sim.trip(format!(
-                    "more than MaxLost = {n} messages in a row unanswered: {cause}"
-                ));
+        }
+        if sim.sup.in_row > sim.sup.max_lost {
+            let n = sim.sup.max_lost;
+            let cause = if sim.sup.wrong_in_row > 0 {
+                format!("{} replies carried a wrong Id (M8)", sim.sup.wrong_in_row)
+            } else if sim.sup.late_in_row > 0 {
+                format!("{} replies came later than one cycle", sim.sup.late_in_row)
+            } else {
+                "no reply at all".to_string()
+            };
+            sim.trip(format!(
+                "more than MaxLost = {n} messages in a row unanswered: {cause}"
+            ));
+        }
+        let now_ms = c * u64::from(tick_ms);
+        for (which, &(robot_prop, period)) in sends.iter().enumerate() {
+            if now_ms % u64::from(period) != 0 {
+                continue;
             }
-        }
-        let id = opts.first_id.wrapping_add(c as u32);
-        let t = start.elapsed().as_secs_f64();
-        let msg = wire::robot_message(device, robot_prop, id, Motion::now(t), |f| {
-            motion.value(f, c, t)
-        });
-        let now = Instant::now();
-        let index = sim.cycles.len();
-        sim.cycles.push(Cycle {
-            cycle: c,
-            id,
-            sent_us: sim.us(now),
-            reply_us: None,
-            dropped_by_fault: plan.drop,
-        });
-        if plan.drop {
-            continue;
-        }
-        sim.waiting.insert(
-            id,
-            Waiting {
-                index,
-                sent: now,
-                expected: if plan.duplicate { 2 } else { 1 },
-                answered: false,
-            },
-        );
-        sim.s.sent += 1;
-        previous = Some(id);
-        if plan.reorder && held.is_none() {
-            held = Some((id, msg, plan.second_port));
-        } else {
-            sim.send(msg.as_bytes(), plan.second_port)?;
-            if plan.duplicate {
+            let plan = faults.plan(m);
+            if plan.pause_ms > 0 {
+                sim.transition(&format!("pausing {} ms (fault)", plan.pause_ms));
+                let resume = Instant::now() + Duration::from_millis(plan.pause_ms);
+                sim.pump(resume, None);
+                schedule = Instant::now() + tick;
+            }
+            let id = opts.first_id.wrapping_add(m as u32);
+            m += 1;
+            let t = start.elapsed().as_secs_f64();
+            let msg = wire::robot_message(device, robot_prop, id, Motion::now(t), |f| {
+                motion.value(f, c, t)
+            });
+            let now = Instant::now();
+            let index = sim.cycles.len();
+            sim.cycles.push(Cycle {
+                cycle: c,
+                id,
+                sent_us: sim.us(now),
+                reply_us: None,
+                dropped_by_fault: plan.drop,
+                property: which,
+            });
+            if plan.drop {
+                continue;
+            }
+            sim.waiting.insert(
+                id,
+                Waiting {
+                    index,
+                    sent: now,
+                    expected: if plan.duplicate { 2 } else { 1 },
+                    answered: false,
+                },
+            );
+            sim.s.sent += 1;
+            previous.push(id);
+            if plan.reorder && held.is_none() {
+                held = Some((id, msg, plan.second_port));
+            } else {
                 sim.send(msg.as_bytes(), plan.second_port)?;
-            }
-            if let Some((held_id, m, second)) = held.take() {
-                if let Some(w) = sim.waiting.get_mut(&held_id) {
-                    w.sent = Instant::now();
+                if plan.duplicate {
+                    sim.send(msg.as_bytes(), plan.second_port)?;
                 }
-                sim.send(m.as_bytes(), second)?;
+                if let Some((held_id, m, second)) = held.take() {
+                    if let Some(w) = sim.waiting.get_mut(&held_id) {
+                        w.sent = Instant::now();
+                    }
+                    sim.send(m.as_bytes(), second)?;
+                }
             }
-        }
-        if plan.garbage {
-            sim.send(b"\x01\x02<<garbage>>&&", plan.second_port)?;
-        }
-        if plan.oversize {
-            let big = format!(
-                "<{} Id=\"{id}\">{}</{}>",
-                robot_prop.wire(),
-                " ".repeat(9000),
-                robot_prop.wire()
-            );
-            sim.send(big.as_bytes(), plan.second_port)?;
-        }
-        if !opts.pacing && held.is_none() {
-            sim.pump(
-                Instant::now() + Duration::from_millis(200).max(rate),
-                Some(id),
-            );
+            if plan.garbage {
+                sim.send(b"\x01\x02<<garbage>>&&", plan.second_port)?;
+            }
+            if plan.oversize {
+                let big = format!(
+                    "<{} Id=\"{id}\">{}</{}>",
+                    robot_prop.wire(),
+                    " ".repeat(9000),
+                    robot_prop.wire()
+                );
+                sim.send(big.as_bytes(), plan.second_port)?;
+            }
+            if !opts.pacing && held.is_none() {
+                sim.pump(
+                    Instant::now() + Duration::from_millis(200).max(tick),
+                    Some(id),
+                );
+            }
         }
         if c % 50 == 0 {
             sim.device_lines();
@@ -632,9 +749,9 @@ pub fn run(
         sim.send(m.as_bytes(), second)?;
     }
     // Collect the last replies.
-    let drain = Instant::now() + rate.max(Duration::from_millis(200));
+    let drain = Instant::now() + tick.max(Duration::from_millis(200));
     while !sim.waiting.values().all(|w| w.answered) && Instant::now() < drain {
-        sim.pump(drain.min(Instant::now() + rate), None);
+        sim.pump(drain.min(Instant::now() + tick), None);
     }
     sim.bar.finish_and_clear();
     sim.device_lines();
@@ -647,8 +764,42 @@ pub fn run(
         .count() as u64;
     s.latency_us = Latency::of(sim.cycles.iter().filter_map(Cycle::latency_us).collect());
     s.supervision_tripped = sim.sup.tripped.clone();
+    s.properties = sends
+        .iter()
+        .enumerate()
+        .map(|(which, (p, ms))| {
+            let mine = || sim.cycles.iter().filter(move |c| c.property == which);
+            PropertyFigures {
+                name: p.name.clone(),
+                direction: "sent".into(),
+                period_ms: Some(*ms),
+                messages: mine().filter(|c| !c.dropped_by_fault).count() as u64,
+                answered: mine().filter(|c| c.reply_us.is_some()).count() as u64,
+                lost: mine()
+                    .filter(|c| !c.dropped_by_fault && c.reply_us.is_none())
+                    .count() as u64,
+            }
+        })
+        .collect();
+    for p in device.sent() {
+        if let Some(&n) = sim.received.get(&p.name) {
+            s.properties.push(PropertyFigures {
+                name: p.name.clone(),
+                direction: if p.name == sim.reply_prop.name {
+                    "reply"
+                } else {
+                    "periodic"
+                }
+                .into(),
+                period_ms: None,
+                messages: n,
+                answered: 0,
+                lost: 0,
+            });
+        }
+    }
     s.elapsed_s = start.elapsed().as_secs_f64();
-    let rate_us = u64::from(opts.rate_ms) * 1000;
+    let rate_us = u64::from(tick_ms) * 1000;
     if let Some(p) = &opts.csv {
         report::write_csv(p, &sim.cycles, rate_us)
             .map_err(|e| format!("--csv {}: {e}", p.display()))?;

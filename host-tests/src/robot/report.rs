@@ -16,6 +16,8 @@ pub struct Cycle {
     pub reply_us: Option<u64>,
     /// Not sent (a `drop` fault).
     pub dropped_by_fault: bool,
+    /// Which `--send` property (position in the list; 0 by default).
+    pub property: usize,
 }
 
 impl Cycle {
@@ -50,6 +52,24 @@ pub struct Summary {
     /// The first problem with a reply, for the user.
     pub first_error: Option<String>,
     pub elapsed_s: f64,
+    /// Per property (M11): each one sent, then each device property
+    /// received (the reply, periodic ones).
+    pub properties: Vec<PropertyFigures>,
+}
+
+/// One property's share of a run.
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct PropertyFigures {
+    pub name: String,
+    /// `sent` (by the simulator), `reply` or `periodic` (by the device).
+    pub direction: String,
+    /// Sending period (sent properties).
+    pub period_ms: Option<u32>,
+    /// Messages sent, or received from the device.
+    pub messages: u64,
+    /// Of the sent ones: answered, never answered.
+    pub answered: u64,
+    pub lost: u64,
 }
 
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
@@ -116,6 +136,22 @@ impl Summary {
             "  latency us: min {}  median {}  p99 {}  p99.9 {}  max {}",
             l.min, l.median, l.p99, l.p99_9, l.max
         )?;
+        if self.properties.len() > 2 {
+            for p in &self.properties {
+                match p.period_ms {
+                    Some(ms) => writeln!(
+                        out,
+                        "  {} every {ms} ms: sent {}  answered {}  lost {}",
+                        p.name, p.messages, p.answered, p.lost
+                    )?,
+                    None => writeln!(
+                        out,
+                        "  {} ({}): received {}",
+                        p.name, p.direction, p.messages
+                    )?,
+                }
+            }
+        }
         match &self.supervision_tripped {
             None => writeln!(out, "  supervision: never tripped"),
             Some(s) => writeln!(out, "  supervision: TRIPPED ({s})"),
@@ -125,7 +161,10 @@ impl Summary {
 
 pub fn write_csv(path: &Path, cycles: &[Cycle], rate_us: u64) -> io::Result<()> {
     let mut f = io::BufWriter::new(std::fs::File::create(path)?);
-    writeln!(f, "cycle,id,sent_us,reply_us,latency_us,late,verdict")?;
+    writeln!(
+        f,
+        "cycle,id,sent_us,reply_us,latency_us,late,verdict,property"
+    )?;
     for c in cycles {
         let verdict = if c.dropped_by_fault {
             "dropped-by-fault"
@@ -137,14 +176,15 @@ pub fn write_csv(path: &Path, cycles: &[Cycle], rate_us: u64) -> io::Result<()> 
         let lat = c.latency_us();
         writeln!(
             f,
-            "{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{}",
             c.cycle,
             c.id,
             c.sent_us,
             c.reply_us.map(|v| v.to_string()).unwrap_or_default(),
             lat.map(|v| v.to_string()).unwrap_or_default(),
             lat.is_some_and(|l| l > rate_us),
-            verdict
+            verdict,
+            c.property
         )?;
     }
     f.flush()

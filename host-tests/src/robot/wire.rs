@@ -247,6 +247,16 @@ fn check_attrs(
     Ok(())
 }
 
+/// The root element's name of a message, if it has one.
+pub fn root_name(bytes: &[u8]) -> Option<String> {
+    use xmlparser::{Token, Tokenizer};
+    let text = std::str::from_utf8(bytes).ok()?;
+    Tokenizer::from(text.trim_start()).find_map(|t| match t {
+        Ok(Token::ElementStart { local, .. }) => Some(local.as_str().to_string()),
+        _ => None,
+    })
+}
+
 /// Checks a reply against `prop` of the layout: the root, `Id` and `Ts`,
 /// and every field present, in its shape, with a valid value.
 pub fn check_reply(device: &Device, prop: &Property, bytes: &[u8]) -> Result<Reply, String> {
