@@ -6,7 +6,19 @@ use host_tests::{shared_rri, workspace};
 use std::process::{Command, Output};
 
 fn build_firmware(gsi_dir: &std::path::Path, device: Option<&str>) -> Output {
+    build_firmware_with(gsi_dir, device, &[])
+}
+
+fn build_firmware_with(
+    gsi_dir: &std::path::Path,
+    device: Option<&str>,
+    settings: &[(&str, &str)],
+) -> Output {
     let mut cmd = Command::new(env!("CARGO"));
+    for var in ["RRI_REPLY", "RRI_PERIODIC", "RRI_SEND_PERIOD_MS"] {
+        cmd.env_remove(var);
+    }
+    cmd.envs(settings.iter().copied());
     cmd.current_dir(workspace())
         .args(["build", "--offline", "-q", "-p", "rri-firmware", "--lib"])
         .env(
@@ -71,4 +83,30 @@ fn a_broken_configuration_fails_the_build_with_every_error() {
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn m11_rri_reply_and_rri_periodic_errors_name_the_choices_then_a_good_pair_builds() {
+    let dir = workspace().join("host-tests/gsi/every-type/GSI");
+    let out = build_firmware_with(
+        &dir,
+        None,
+        &[("RRI_REPLY", "RsRobData"), ("RRI_PERIODIC", "Offsets=30")],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "must fail:\n{stderr}");
+    for expected in [
+        "RRI_REPLY=RsRobData: property \"RsRobData\" is Flag=\"WriteOnly\": the device never sends it; choose one the device sends: RsSensData, Shared, Speed, Offsets",
+        "RRI_PERIODIC: Offsets=30: the period must be a positive multiple of 4 ms",
+    ] {
+        assert!(stderr.contains(expected), "missing `{expected}` in:\n{stderr}");
+    }
+
+    let out = build_firmware_with(
+        &dir,
+        None,
+        &[("RRI_REPLY", "Shared"), ("RRI_PERIODIC", "Offsets=32")],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "must build:\n{stderr}");
 }

@@ -620,3 +620,121 @@ fn type_names_are_case_insensitive_with_aliases() {
     assert_eq!(types[7], TypeRef::Simple(SimpleType::Real), "Num = real");
     assert_eq!(types[0], TypeRef::Enum(0));
 }
+
+fn every_type() -> gsi_config::Device {
+    let dir = host_tests::workspace().join("host-tests/gsi/every-type/GSI");
+    gsi_config::load(&dir, None)
+        .unwrap_or_else(|f| panic!("{f}"))
+        .device
+}
+
+#[test]
+fn m11_rri_reply_names_a_property_the_device_sends() {
+    let d = every_type();
+    // Name or Alias, any case; the position among RsSensData, Shared,
+    // Speed, Offsets.
+    assert_eq!(
+        gsi_codegen::device_property(&d, "RRI_REPLY", "Shared"),
+        Ok(1)
+    );
+    assert_eq!(
+        gsi_codegen::device_property(&d, "RRI_REPLY", "sensdata"),
+        Ok(0)
+    );
+    assert_eq!(
+        gsi_codegen::device_property(&d, "RRI_REPLY", "OFFSETS"),
+        Ok(3)
+    );
+    let choices = "choose one the device sends: RsSensData, Shared, Speed, Offsets";
+    let e = gsi_codegen::device_property(&d, "RRI_REPLY", "RsRobData").unwrap_err();
+    assert_eq!(
+        e,
+        format!("RRI_REPLY=RsRobData: property \"RsRobData\" is Flag=\"WriteOnly\": the device never sends it; {choices}")
+    );
+    let e = gsi_codegen::device_property(&d, "RRI_REPLY", "Unused").unwrap_err();
+    assert!(e.contains("Flag=\"None\"") && e.contains(choices), "{e}");
+    let e = gsi_codegen::device_property(&d, "RRI_REPLY", "Nope").unwrap_err();
+    assert_eq!(
+        e,
+        format!("RRI_REPLY=Nope: no property \"Nope\" in the configuration; {choices}")
+    );
+}
+
+#[test]
+fn m11_rri_periodic_lists_name_period_pairs() {
+    let d = every_type();
+    assert_eq!(
+        gsi_codegen::periodic(&d, "Offsets=32, Speed=64", 0),
+        Ok(vec![(3, 32), (2, 64)])
+    );
+    assert_eq!(gsi_codegen::periodic(&d, "", 0), Ok(vec![]));
+    for (text, why) in [
+        ("Offsets", "is not Name=MS"),
+        ("Offsets=30", "positive multiple of 4 ms"),
+        ("Offsets=0", "positive multiple of 4 ms"),
+        ("RsSensData=8", "is the reply property"),
+        ("Offsets=8,offsets=16", "listed twice"),
+        ("RsRobData=8", "the device never sends it"),
+    ] {
+        let e = gsi_codegen::periodic(&d, text, 0).unwrap_err();
+        assert!(e.contains(why), "{text}: {e}");
+    }
+}
+
+#[test]
+fn m11_the_reply_and_periodic_settings_reach_the_generated_layout() {
+    let d = every_type();
+    let opts = gsi_codegen::Options {
+        reply: 1,
+        periodic: vec![(3, 32), (0, 64)],
+        ..Default::default()
+    };
+    let src = gsi_codegen::generate(&d, &opts).expect("generates");
+    for expected in [
+        "pub const REPLY: DeviceProperty = DeviceProperty::Shared;",
+        "pub type ReplyMessage = SharedMessage;",
+        "reply: REPLY.index(),",
+        "pub const PERIODIC: [Periodic; 2] = [",
+        "        property: DeviceProperty::Offsets.index(),\n        period_ms: 32,",
+        "        property: DeviceProperty::RsSensData.index(),\n        period_ms: 64,",
+        "Some(b\"Speed\") =>",
+    ] {
+        assert!(src.contains(expected), "missing {expected:?}");
+    }
+    let bad = gsi_codegen::Options {
+        reply: 4,
+        ..Default::default()
+    };
+    assert!(
+        gsi_codegen::generate(&d, &bad).is_err(),
+        "index beyond the four"
+    );
+}
+
+#[test]
+fn m11_more_than_sixteen_properties_per_direction_is_a_build_error() {
+    let mut d = every_type();
+    let speed = d
+        .properties
+        .iter()
+        .find(|p| p.name == "Speed")
+        .expect("Speed")
+        .clone();
+    for i in 0..14 {
+        let mut p = speed.clone();
+        p.name = format!("Extra{i}");
+        p.alias = None;
+        p.pos.line = 100 + i;
+        d.properties.push(p);
+    }
+    // 3 + 14 = 17 robot properties, 4 + 14 = 18 device properties.
+    let errors = gsi_codegen::generate(&d, &Default::default()).unwrap_err();
+    assert_eq!(errors.len(), 2, "{errors:?}");
+    assert!(errors[0]
+        .message
+        .contains("more than 16 properties the controller sends"));
+    assert_eq!(errors[0].pos.line, 100 + 13, "the 17th robot property");
+    assert!(errors[1]
+        .message
+        .contains("more than 16 properties the device sends"));
+}
