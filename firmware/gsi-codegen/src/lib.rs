@@ -659,24 +659,13 @@ fn emit_record(e: &mut Emitter, d: &Device, id: &Idents, i: usize, r: &gsi_confi
     }
     e.close("");
     e.blank();
-    e.open(format!("impl {name}"));
-    e.doc("Every field zero, false, empty or the first enum member.");
-    e.open("pub const DEFAULT: Self = Self");
-    for (j, f) in r.fields.iter().enumerate() {
-        e.line(format!(
-            "{}: {},",
-            id.fields[i][j],
-            default_expr(id, f.ty, f.size)
-        ));
-    }
-    e.close(";");
-    e.close("");
-    e.blank();
-    e.open(format!("impl Default for {name}"));
-    e.open("fn default() -> Self");
-    e.line("Self::DEFAULT");
-    e.close("");
-    e.close("");
+    let defaults: Vec<(String, String)> = r
+        .fields
+        .iter()
+        .enumerate()
+        .map(|(j, f)| (id.fields[i][j].clone(), default_expr(id, f.ty, f.size)))
+        .collect();
+    emit_defaults(e, name, "Every field", &defaults);
     e.blank();
     e.open(format!("impl Record for {name}"));
     let items: Vec<Vec<String>> = r
@@ -729,6 +718,28 @@ fn emit_record(e: &mut Emitter, d: &Device, id: &Idents, i: usize, r: &gsi_confi
     }
     e.line("_ => return None,");
     e.close(")");
+    e.close("");
+    e.close("");
+}
+
+/// `impl {name} { pub const DEFAULT }` from (field, default expression)
+/// pairs, and `Default` returning it (a `const` so the firmware's statics
+/// start from it without running code).
+fn emit_defaults(e: &mut Emitter, name: &str, what: &str, fields: &[(String, String)]) {
+    e.open(format!("impl {name}"));
+    e.doc(format!(
+        "{what} zero, false, empty or the first enum member."
+    ));
+    e.open("pub const DEFAULT: Self = Self");
+    for (field, value) in fields {
+        e.line(format!("{field}: {value},"));
+    }
+    e.close(";");
+    e.close("");
+    e.blank();
+    e.open(format!("impl Default for {name}"));
+    e.open("fn default() -> Self");
+    e.line("Self::DEFAULT");
     e.close("");
     e.close("");
 }

@@ -98,35 +98,36 @@ pub(crate) fn emit_sets(
     reply: usize,
     periodic: &[(usize, u32)],
 ) {
-    if !received.is_empty() {
-        e.blank();
-        emit_which(e, d, "RobotProperty", "the controller sends", received);
-        e.blank();
-        emit_struct(
-            e,
-            d,
-            id,
+    let directions: [(&[usize], &str, &str, &str, &str); 2] = [
+        (
+            received,
+            "RobotProperty",
+            "the controller sends",
             "RobotProperties",
             "The last good value of every property the controller sends (M2, M11).",
-            received,
-        );
-        e.blank();
-        emit_robot_set(e, d, id, received);
-    }
-    if !sent.is_empty() {
-        e.blank();
-        emit_which(e, d, "DeviceProperty", "the device sends", sent);
-        e.blank();
-        emit_struct(
-            e,
-            d,
-            id,
+        ),
+        (
+            sent,
+            "DeviceProperty",
+            "the device sends",
             "DeviceProperties",
             "Every property the device sends, as the application last filled it in.",
-            sent,
-        );
+        ),
+    ];
+    for (robot, (props, which, who, set, doc)) in [true, false].into_iter().zip(directions) {
+        if props.is_empty() {
+            continue;
+        }
         e.blank();
-        emit_device_set(e, d, id, sent);
+        emit_which(e, d, which, who, props);
+        e.blank();
+        emit_struct(e, d, id, set, doc, props);
+        e.blank();
+        if robot {
+            emit_robot_set(e, d, id, props);
+        } else {
+            emit_device_set(e, d, id, props);
+        }
     }
     e.blank();
     let variant = |pos: usize| super::names::camel(&d.properties[sent[pos]].name);
@@ -217,25 +218,14 @@ fn emit_struct(e: &mut Emitter, d: &Device, id: &Idents, name: &str, doc: &str, 
     }
     e.close("");
     e.blank();
-    e.open(format!("impl {name}"));
-    e.doc("Every value zero, false, empty or the first enum member.");
-    e.open("pub const DEFAULT: Self = Self");
-    for &i in props {
-        let p = &d.properties[i];
-        e.line(format!(
-            "{}: {},",
-            field_name(d, i),
-            default_expr(id, p.ty, p.size)
-        ));
-    }
-    e.close(";");
-    e.close("");
-    e.blank();
-    e.open(format!("impl Default for {name}"));
-    e.open("fn default() -> Self");
-    e.line("Self::DEFAULT");
-    e.close("");
-    e.close("");
+    let defaults: Vec<(String, String)> = props
+        .iter()
+        .map(|&i| {
+            let p = &d.properties[i];
+            (field_name(d, i), default_expr(id, p.ty, p.size))
+        })
+        .collect();
+    super::emit_defaults(e, name, "Every value", &defaults);
 }
 
 fn emit_robot_set(e: &mut Emitter, d: &Device, id: &Idents, props: &[usize]) {
