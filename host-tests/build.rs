@@ -9,6 +9,7 @@ const LAYOUTS: &[(&str, &str, Option<&str>)] = &[
     ("anydevice", "../shared/rri/examples/GSI", None),
     ("udptest", "../shared/rri/real-world/GSI", Some("UdpTest")),
     ("every_type", "host-tests/gsi/every-type/GSI", None),
+    ("several", "host-tests/gsi/several-properties/GSI", None),
 ];
 
 fn main() {

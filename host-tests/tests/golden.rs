@@ -55,7 +55,7 @@ fn rustfmt_check(file: &Path) {
 #[test]
 fn generated_layouts_are_formatted_as_rustfmt_would() {
     rustfmt_check(&workspace().join("host-tests/golden/anydevice_layout.rs"));
-    for module in ["anydevice", "udptest", "every_type"] {
+    for module in ["anydevice", "udptest", "every_type", "several"] {
         rustfmt_check(&Path::new(env!("OUT_DIR")).join(format!("{module}.rs")));
     }
 }

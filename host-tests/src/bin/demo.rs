@@ -1,4 +1,5 @@
-//! `cargo demo [-- --tcp] [--cycles N]`: the whole product in one command.
+//! `cargo demo [-- --tcp] [--cycles N] [--send NAME=MS]… [--reply NAME]`:
+//! the whole product in one command.
 //! Installs QEMU when it is missing, builds the sensor firmware for QEMU's
 //! `mps2-an500` board (Cortex-M7, LAN9118 Ethernet), boots it, drives it
 //! with the robot-controller simulator (2,500 cycles at 4 ms: 10 s of robot
@@ -29,6 +30,26 @@ struct Args {
     /// Write the simulator's latency plot (.svg or .png) here.
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// Send property NAME every MS ms (repeatable, one SiSetCyclic each,
+    /// M11); default: the first property the controller sends, every 4 ms.
+    #[arg(long, value_name = "NAME=MS", value_parser = send_spec)]
+    send: Vec<(String, u32)>,
+    /// The property the firmware answers with (its build's RRI_REPLY);
+    /// default $RRI_REPLY, else the first property the device sends.
+    #[arg(long, value_name = "NAME")]
+    reply: Option<String>,
+}
+
+/// `NAME=MS` of `--send`.
+fn send_spec(text: &str) -> Result<(String, u32), String> {
+    let (name, ms) = text
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=MS, e.g. RobData=4, not `{text}`"))?;
+    let ms = ms
+        .trim()
+        .parse()
+        .map_err(|_| format!("MS in `{text}` is a number of milliseconds"))?;
+    Ok((name.trim().to_string(), ms))
 }
 
 fn main() -> ExitCode {
@@ -91,11 +112,29 @@ fn demo(args: &Args) -> Result<(), String> {
     let mut opts = RobotOptions::new(gsi, ([127, 0, 0, 1], host_port).into());
     opts.device = device_name;
     opts.cycles = args.cycles;
-    opts.tcp = args.tcp;
+    // The transport the configuration says (the TCP demo's is TCP).
+    opts.tcp = device.channel.protocol == gsi_config::Protocol::Tcp;
+    opts.sends = args.send.clone();
+    opts.reply = args.reply.clone().or_else(|| {
+        std::env::var("RRI_REPLY")
+            .ok()
+            .filter(|v| !v.trim().is_empty())
+    });
     opts.plot = args.plot.clone();
     opts.progress = std::io::stderr().is_terminal();
     opts.device_log = Some(board.new_lines.clone());
-    println!("== robot simulator: {} cycles every 4 ms", args.cycles);
+    match args.send.as_slice() {
+        [] => println!("== robot simulator: {} cycles every 4 ms", args.cycles),
+        sends => println!(
+            "== robot simulator: {} cycles, sending {}",
+            args.cycles,
+            sends
+                .iter()
+                .map(|(n, ms)| format!("{n} every {ms} ms"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
     let result = run(&opts, &device, &mut out);
     // One more counter line from the device.
     std::thread::sleep(Duration::from_millis(1100));
