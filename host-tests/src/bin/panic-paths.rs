@@ -195,7 +195,12 @@ fn sites(objdump: &Path, elf: &Path) -> Result<Vec<Site>, String> {
 
 /// `firmware`, a dependency's name, or `unknown`.
 fn owner(source: &str) -> String {
-    if source.contains("/firmware/src/") || source.starts_with("firmware/src/") {
+    // The firmware crate and the framer it takes from rri-framing.
+    let ours = ["firmware/src/", "firmware/rri-framing/src/"];
+    if ours
+        .iter()
+        .any(|dir| source.contains(&format!("/{dir}")) || source.starts_with(dir))
+    {
         "firmware".into()
     } else if let Some(rest) = source.split("crates.io/").nth(1) {
         rest.split('/').next().unwrap_or("crates.io").to_string()
