@@ -322,12 +322,19 @@ where
     let mut a = TcpSocket::new(stack, rx_a, tx_a);
     let mut b = TcpSocket::new(stack, rx_b, tx_b);
     let (mut served, mut standby) = (&mut a, &mut b);
+    let mut listened = false;
     loop {
         // Both sockets listen; serve whichever connects first.
         if !(listen(served, port) && listen(standby, port)) {
             engine.init_failed();
             Timer::after(POLL_INTERVAL).await;
             continue;
+        }
+        if !listened {
+            // S2: CONNECTED once the device listens, before any controller
+            // connects (after a peer closes it stays CLOSED until the next).
+            engine.listening();
+            listened = true;
         }
         if !connected(served) {
             if connected(standby) {

@@ -402,6 +402,9 @@ fn serve_tcp<R: RobotSet, D: DeviceSet, const RX: usize>(
         "listening on tcp {local} (device {})",
         opts.device_name
     );
+    // S2: CONNECTED once it listens, as over UDP (and on the boards).
+    sensor.engine.listening();
+    sensor.note_state();
     if let Some(tx) = ready {
         let _ = tx.send(local);
     }

@@ -312,3 +312,20 @@ fn a_peer_that_stops_reading_is_closed_after_timeout() {
     let s = engine.stats();
     assert!(s.send_errors >= 1, "{s:?}");
 }
+
+/// S2 on the boards' TCP task: CONNECTED once both sockets listen, before
+/// any controller connects (the host sensor does the same).
+#[test]
+fn s2_connected_while_listening_before_any_controller() {
+    let mut engine = DeviceEngine::new(config());
+    assert_eq!(engine.state(), SensorState::Undefined);
+    let done = with_tcp_device(
+        &mut engine,
+        &mut (),
+        |_stack| async { Timer::after(Duration::from_millis(5)).await },
+        10_000,
+    );
+    assert!(done, "the robot's wait ended");
+    assert_eq!(engine.state(), SensorState::Connected);
+    assert_eq!(engine.stats().closed, 0);
+}

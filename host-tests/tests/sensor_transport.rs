@@ -205,3 +205,24 @@ fn udp_keeps_answering_whatever_the_sends_do() {
     let r = stop(sensor);
     assert_eq!(r.stats.answered, 4);
 }
+
+/// S2: over TCP the sensor is CONNECTED as soon as it listens, before any
+/// controller connects (as over UDP and on the boards); CLOSED when the
+/// controller goes, CONNECTED again on the next connection.
+#[test]
+fn s2_tcp_is_connected_while_listening() {
+    use rri_firmware::engine::SensorState::{Closed, Connected, Operating, Undefined};
+    let sensor = Background::start(true, config()).expect("sensor");
+    std::thread::sleep(Duration::from_millis(50));
+    let mut s = connect(sensor.addr);
+    assert_eq!(ask(&mut s, 7), Some(7));
+    drop(s);
+    std::thread::sleep(Duration::from_millis(50));
+    let r = stop(sensor);
+    let states: Vec<_> = r.states.iter().map(|(_, st, _)| *st).collect();
+    assert_eq!(
+        states,
+        [Undefined, Connected, Operating, Closed],
+        "{states:?}"
+    );
+}
