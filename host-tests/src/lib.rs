@@ -15,8 +15,11 @@ pub mod boards;
 pub mod fuzzing;
 pub mod qemu;
 pub mod qemu_bench;
-pub mod robot;
 pub mod sensor;
+
+/// The robot-controller simulator, a crate of its own (`rri-robot`) so
+/// that the firmware's build settings never rebuild it.
+pub use rri_robot as robot;
 
 use std::path::PathBuf;
 

@@ -13,7 +13,7 @@ use rri_firmware::codec::DecodeErrorKind;
 use rri_firmware::engine::{Config, ErrorCode, SensorState};
 use rri_firmware::layout;
 use std::net::{SocketAddr, UdpSocket};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
@@ -342,109 +342,246 @@ fn dry_run_never_trips_s1() {
     assert!(s.passed(), "{:?}", s.failure());
 }
 
-// --- the command line ----------------------------------------------------------
+/// The host tools' aliases show cargo's own output: a first build takes a
+/// minute, and the GSI warnings (G6) must reach the user.
+#[test]
+fn aliases_do_not_silence_cargo() {
+    let config = std::fs::read_to_string(host_tests::workspace().join(".cargo/config.toml"))
+        .expect("read .cargo/config.toml");
+    for line in config.lines().filter(|l| l.contains("\"run ")) {
+        assert!(
+            !line.contains(" -q "),
+            "an alias runs cargo quietly: {line}"
+        );
+    }
+}
 
-fn robot_cli(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_robot"))
-        .args(args)
+#[test]
+fn sensor_host_help_goes_to_stdout_and_bad_flags_exit_2() {
+    let bin = env!("CARGO_BIN_EXE_sensor-host");
+    let out = std::process::Command::new(bin)
+        .arg("--help")
         .output()
-        .expect("robot runs")
-}
-
-#[test]
-fn cli_bad_arguments_and_bad_gsi_exit_2_with_a_message() {
-    let gsi = built_gsi().0;
-    let gsi = gsi.to_str().expect("utf-8 path");
-    for (args, says) in [
-        (
-            vec!["--gsi", gsi, "--to", "127.0.0.1:9", "--rate-ms", "5"],
-            "multiple of 4",
-        ),
-        (vec!["--gsi", gsi], "--to"),
-        (vec!["--to", "127.0.0.1:9"], "--gsi"),
-        (vec!["--gsi", gsi, "--to", "nowhere"], "ADDR:PORT"),
-        (
-            vec!["--gsi", gsi, "--to", "127.0.0.1:9", "--fault", "explode:1"],
-            "unknown",
-        ),
-        (
-            vec!["--gsi", gsi, "--to", "127.0.0.1:9", "--plot", "x.gif"],
-            ".svg or .png",
-        ),
-        (
-            vec!["--gsi", "/nonexistent/GSI", "--to", "127.0.0.1:9"],
-            "cannot read",
-        ),
-    ] {
-        let out = robot_cli(&args);
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
-        assert!(stderr.contains(says), "{args:?}: {stderr}");
-    }
-}
-
-#[test]
-fn cli_writes_csv_json_plot_and_pcap_and_exits_0() {
-    let sensor = HostSensor::start(false, layout::ENGINE_CONFIG);
-    let dir = std::env::temp_dir().join(format!("rri-sim-out-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("mkdir");
-    let p = |f: &str| dir.join(f).to_string_lossy().into_owned();
-    let (gsi, _) = built_gsi();
-    let to = sensor.0.addr.to_string();
-    let (svg, pcap) = (p("run.svg"), p("run.pcap"));
-    let (csv, json) = (p("run.csv"), p("run.json"));
-    let mut args = vec![
-        "--gsi",
-        gsi.to_str().expect("utf-8"),
-        "--to",
-        &to,
-        "--cycles",
-        "200",
-        "--no-pacing",
-        "--no-progress",
-        "--csv",
-        &csv,
-        "--json",
-        &json,
-        "--pcap",
-        &pcap,
-    ];
-    // Plot labels need a TrueType font (CI installs fonts-dejavu-core).
-    let font = Path::new("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf").exists();
-    if font {
-        args.extend(["--plot", svg.as_str()]);
-    }
-    let out = robot_cli(&args);
-    sensor.stop();
+        .expect("runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0));
+    assert!(stdout.contains("Usage:"), "{stdout}");
+    assert!(out.stderr.is_empty());
+    let out = std::process::Command::new(bin)
+        .args(["--udp", "--tcp"])
+        .output()
+        .expect("runs");
     assert_eq!(
         out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        Some(2),
+        "conflicting flags are a usage error"
     );
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(stdout.contains("sent 200  answered 200"), "{stdout}");
-    let csv = std::fs::read_to_string(p("run.csv")).expect("csv");
-    assert_eq!(csv.lines().count(), 201);
-    assert!(csv.starts_with("cycle,id,sent_us,reply_us,latency_us,late,verdict"));
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(p("run.json")).expect("json"))
-            .expect("valid JSON");
-    assert_eq!(json["answered"], 200);
-    assert!(json["latency_us"]["p99"].as_u64().is_some());
-    if font {
-        let svg = std::fs::read_to_string(&svg).expect("svg");
-        assert!(svg.contains("<svg") && svg.contains("Reply latency histogram"));
+}
+
+/// One definition of late: the summary's count is the CSV's (reply minus
+/// actual send, beyond one cycle), also for messages held back by a
+/// `reorder` fault.
+#[test]
+fn summary_late_equals_the_csv_late_and_injected_faults_are_reported() {
+    let sensor = HostSensor::start(false, layout::ENGINE_CONFIG);
+    let mut o = options(sensor.0.addr);
+    o.pacing = true;
+    o.cycles = 300;
+    o.faults = vec![
+        Fault::Reorder(10.0),
+        Fault::Drop(2.0),
+        Fault::Duplicate(2.0),
+    ];
+    o.seed = 3;
+    let (s, cycles) = simulate(&o);
+    std::thread::sleep(Duration::from_millis(50));
+    let r = sensor.stop();
+    let csv_late = cycles
+        .iter()
+        .filter(|c| c.latency_us().is_some_and(|l| l > 4000))
+        .count() as u64;
+    assert_eq!(s.late, csv_late);
+    let dropped = cycles.iter().filter(|c| c.dropped_by_fault).count() as u64;
+    assert_eq!(s.injected.dropped, dropped);
+    assert!(s.injected.reordered > 10, "{:?}", s.injected);
+    assert_eq!(s.injected.duplicated, u64::from(r.stats.duplicates));
+    assert_eq!(s.injected.duplicated, s.duplicate_replies);
+    let mut text = Vec::new();
+    s.print(&mut text).expect("print");
+    let text = String::from_utf8(text).expect("utf-8");
+    assert!(
+        text.contains(&format!(
+            "injected: dropped {dropped}  duplicated {}  reordered {}",
+            s.injected.duplicated, s.injected.reordered
+        )),
+        "{text}"
+    );
+}
+
+#[test]
+fn no_pacing_is_said_in_the_summary() {
+    let sensor = HostSensor::start(false, layout::ENGINE_CONFIG);
+    let mut o = options(sensor.0.addr);
+    o.cycles = 10;
+    let (s, _) = simulate(&o);
+    sensor.stop();
+    let mut text = Vec::new();
+    s.print(&mut text).expect("print");
+    let text = String::from_utf8(text).expect("utf-8");
+    assert!(text.contains("lock-step, no pacing"), "{text}");
+    assert!(!text.contains("every 4 ms"), "{text}");
+}
+
+#[test]
+fn a_sensor_built_for_another_device_is_named_as_such() {
+    // Another device's SensData (fields this layout does not have), then
+    // another device's root altogether.
+    for (answer, says) in [
+        (
+            r#"<SensData Id="{id}" Ts="1.0"><Valid>TRUE</Valid></SensData>"#,
+            "the reply <SensData> does not match device AnyDevice's layout (unexpected element <Valid>): is the sensor built for another device?",
+        ),
+        (
+            r#"<Offsets Id="{id}" Ts="1.0" X1="0" X2="0" X3="0"/>"#,
+            "a reply <Offsets> is no message device AnyDevice sends (expected <SensData>): is the sensor built for another device, or with another RRI_REPLY (--reply)?",
+        ),
+    ] {
+        let (addr, stop) = fake_sensor(Duration::ZERO, move |id| {
+            Some(answer.replace("{id}", &id.to_string()))
+        });
+        let mut o = options(addr);
+        o.cycles = 5;
+        let (s, _) = simulate(&o);
+        stop.store(true, Ordering::Relaxed);
+        assert_eq!(s.malformed, 5);
+        let failure = s.failure().expect("fails");
+        assert!(failure.contains(says), "{failure}");
     }
-    let pcap = std::fs::read(p("run.pcap")).expect("pcap");
-    assert_eq!(&pcap[..4], &0xa1b2_c3d4u32.to_le_bytes());
-    // 400 records: 200 messages and 200 replies.
-    let (mut off, mut n) = (24usize, 0);
-    while off + 16 <= pcap.len() {
-        let len = u32::from_le_bytes(pcap[off + 8..off + 12].try_into().expect("4 bytes")) as usize;
-        off += 16 + len;
-        n += 1;
+}
+
+#[test]
+fn nothing_listening_gets_a_hint() {
+    let free = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    let to = free.local_addr().expect("addr");
+    drop(free);
+    let mut o = options(to);
+    o.pacing = true;
+    o.cycles = 40; // MaxLost = 30 of the manual's device
+    let (s, _) = simulate(&o);
+    let failure = s.failure().expect("fails");
+    assert!(
+        failure.contains(&format!(
+            "no reply at all from {to}: is a sensor for device AnyDevice listening there?"
+        )),
+        "{failure}"
+    );
+}
+
+/// Every IPv4, UDP and TCP checksum in the captures is right (Wireshark
+/// validates them), and a TCP capture opens with SYN, SYN-ACK, ACK and
+/// closes with FIN, FIN, ACK.
+#[test]
+fn pcap_checksums_and_the_tcp_handshake() {
+    use smoltcp::wire::{IpAddress, Ipv4Packet, TcpPacket, UdpPacket};
+    for tcp in [false, true] {
+        let sensor = HostSensor::start(tcp, layout::ENGINE_CONFIG);
+        let dir = std::env::temp_dir().join(format!("rri-pcap-{}-{tcp}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("mkdir");
+        let mut o = options(sensor.0.addr);
+        o.tcp = tcp;
+        o.cycles = 50;
+        o.pcap = Some(dir.join("run.pcap"));
+        let (s, _) = simulate(&o);
+        sensor.stop();
+        assert!(s.passed(), "{:?}", s.failure());
+        let pcap = std::fs::read(dir.join("run.pcap")).expect("pcap");
+        let mut off = 24;
+        let mut flags = Vec::new();
+        while off + 16 <= pcap.len() {
+            let len = u32::from_le_bytes(pcap[off + 8..off + 12].try_into().expect("4")) as usize;
+            let ip = Ipv4Packet::new_checked(&pcap[off + 16..off + 16 + len]).expect("IPv4");
+            assert!(ip.verify_checksum(), "IPv4 checksum");
+            let (src, dst) = (
+                IpAddress::Ipv4(ip.src_addr()),
+                IpAddress::Ipv4(ip.dst_addr()),
+            );
+            if tcp {
+                let t = TcpPacket::new_checked(ip.payload()).expect("TCP");
+                assert!(t.verify_checksum(&src, &dst), "TCP checksum");
+                flags.push((t.syn(), t.ack(), t.fin(), t.payload().len()));
+            } else {
+                let u = UdpPacket::new_checked(ip.payload()).expect("UDP");
+                assert_ne!(u.checksum(), 0, "a real UDP checksum");
+                assert!(u.verify_checksum(&src, &dst), "UDP checksum");
+            }
+            off += 16 + len;
+        }
+        assert_eq!(off, pcap.len());
+        if tcp {
+            assert_eq!(
+                flags.len(),
+                6 + 100,
+                "handshake, 50 messages and 50 replies, close"
+            );
+            assert_eq!(
+                &flags[..3],
+                [
+                    (true, false, false, 0),
+                    (true, true, false, 0),
+                    (false, true, false, 0)
+                ]
+            );
+            assert!(
+                flags[3..103].iter().all(|f| f.1 && f.3 > 0),
+                "data segments ACK"
+            );
+            assert_eq!(
+                &flags[103..],
+                [
+                    (false, true, true, 0),
+                    (false, true, true, 0),
+                    (false, true, false, 0)
+                ]
+            );
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
-    assert_eq!((n, off), (400, pcap.len()));
-    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An address given with `--listen` that is not this machine's is blamed on
+/// `--listen`, not on the configuration.
+#[test]
+fn sensor_host_blames_the_address_where_it_came_from() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_sensor-host"))
+        .args(["--listen", "10.1.2.3:3002", "--udp"])
+        .output()
+        .expect("runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("on 10.1.2.3:3002 (--listen)")
+            && stderr.contains("--listen is not an address of this machine"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("configured"), "{stderr}");
+}
+
+/// The README's example outputs go under target/, and outputs written into
+/// the checkout's root are ignored by git.
+#[test]
+fn example_outputs_stay_out_of_the_checkout() {
+    let readme =
+        std::fs::read_to_string(host_tests::workspace().join("README.md")).expect("README");
+    for line in readme.lines().filter(|l| l.starts_with("cargo robot ")) {
+        for flag in ["--plot ", "--csv ", "--pcap ", "--json "] {
+            if let Some(rest) = line.split(flag).nth(1) {
+                assert!(rest.starts_with("target/"), "{line}");
+            }
+        }
+    }
+    let ignore =
+        std::fs::read_to_string(host_tests::workspace().join(".gitignore")).expect(".gitignore");
+    for pattern in ["/*.png", "/*.svg", "/*.csv", "/*.pcap", "/*.json"] {
+        assert!(ignore.lines().any(|l| l == pattern), "{pattern}");
+    }
 }

@@ -5,80 +5,79 @@
 //! (`RRI_GSI_DIR`, `RRI_DEVICE`). Logs state changes and one statistics
 //! line per second; Ctrl-C or SIGTERM prints a summary and exits 0.
 
+use clap::Parser;
 use host_tests::sensor::{run, SensorOptions};
 use std::net::SocketAddr;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-const USAGE: &str = "usage: cargo sensor-host -- [--listen ADDR:PORT] [--udp | --tcp]
-                          [--timeout-ms N] [--max-lost N] [--dry-run true|false] [--send-period-ms N]
+#[derive(Parser, Debug)]
+#[command(
+    name = "cargo sensor-host",
+    about = "The sensor firmware's cycle engine and demo application on std sockets",
+    after_help = "Defaults come from the built configuration (Description.xml): the device's address and channel port, its protocol, TimeOut, MaxLost and DryRun."
+)]
+struct Args {
+    /// Address and port to listen on (default: the configured device address and channel port).
+    #[arg(long, value_name = "ADDR:PORT")]
+    listen: Option<SocketAddr>,
+    /// UDP, whatever the configuration says.
+    #[arg(long, conflicts_with = "tcp")]
+    udp: bool,
+    /// TCP (M10 framing), whatever the configuration says.
+    #[arg(long)]
+    tcp: bool,
+    /// S1 TimeOut in ms.
+    #[arg(long, value_name = "MS")]
+    timeout_ms: Option<u32>,
+    /// S1 MaxLost.
+    #[arg(long, value_name = "N")]
+    max_lost: Option<u32>,
+    /// S1 DryRun.
+    #[arg(long, value_name = "true|false")]
+    dry_run: Option<bool>,
+    /// Send the reply property unprompted every MS ms (a multiple of 4; 0 = off).
+    #[arg(long, value_name = "MS", value_parser = multiple_of_4)]
+    send_period_ms: Option<u32>,
+}
 
-Defaults come from the built configuration (Description.xml): the device's
-address and channel port, its protocol, TimeOut, MaxLost and DryRun.";
-
-fn parse(args: &[String]) -> Result<SensorOptions, String> {
-    let mut o = SensorOptions::from_layout();
-    let mut i = 0;
-    let value = |i: usize| {
-        args.get(i + 1)
-            .ok_or_else(|| format!("{} needs a value", args[i]))
-    };
-    while i < args.len() {
-        match args[i].as_str() {
-            "--listen" => {
-                let v = value(i)?;
-                o.listen = v.parse::<SocketAddr>().map_err(|_| {
-                    format!("--listen {v}: expected ADDR:PORT, e.g. 127.0.0.1:3002")
-                })?;
-                i += 1;
-            }
-            "--udp" => o.tcp = false,
-            "--tcp" => o.tcp = true,
-            "--timeout-ms" => {
-                o.config.timeout_ms = value(i)?
-                    .parse()
-                    .map_err(|_| "--timeout-ms: a number of milliseconds")?;
-                i += 1;
-            }
-            "--max-lost" => {
-                o.config.max_lost = value(i)?.parse().map_err(|_| "--max-lost: a number")?;
-                i += 1;
-            }
-            "--dry-run" => {
-                o.config.dry_run = value(i)?.parse().map_err(|_| "--dry-run: true or false")?;
-                i += 1;
-            }
-            "--send-period-ms" => {
-                let ms: u32 = value(i)?
-                    .parse()
-                    .map_err(|_| "--send-period-ms: a number")?;
-                if !ms.is_multiple_of(4) {
-                    return Err("--send-period-ms must be a multiple of 4".into());
-                }
-                o.config.send_period_ms = ms;
-                i += 1;
-            }
-            "-h" | "--help" => return Err(String::new()),
-            other => return Err(format!("unknown argument {other}")),
-        }
-        i += 1;
+fn multiple_of_4(text: &str) -> Result<u32, String> {
+    match text.parse::<u32>() {
+        Ok(ms) if ms % 4 == 0 => Ok(ms),
+        _ => Err("must be a multiple of 4 ms (0 = off)".into()),
     }
-    Ok(o)
+}
+
+fn options(a: &Args) -> SensorOptions {
+    let mut o = SensorOptions::from_layout();
+    if let Some(addr) = a.listen {
+        o.listen = addr;
+    }
+    if a.udp {
+        o.tcp = false;
+    }
+    if a.tcp {
+        o.tcp = true;
+    }
+    if let Some(ms) = a.timeout_ms {
+        o.config.timeout_ms = ms;
+    }
+    if let Some(n) = a.max_lost {
+        o.config.max_lost = n;
+    }
+    if let Some(d) = a.dry_run {
+        o.config.dry_run = d;
+    }
+    if let Some(ms) = a.send_period_ms {
+        o.config.send_period_ms = ms;
+    }
+    o
 }
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let opts = match parse(&args) {
-        Ok(o) => o,
-        Err(e) => {
-            if !e.is_empty() {
-                eprintln!("error: {e}");
-            }
-            eprintln!("{USAGE}");
-            return ExitCode::from(2);
-        }
-    };
+    let args = Args::parse();
+    let opts = options(&args);
     let stop = Arc::new(AtomicBool::new(false));
     let flag = stop.clone();
     if let Err(e) = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed)) {
@@ -89,15 +88,21 @@ fn main() -> ExitCode {
     match run(&opts, &stop, None, &mut out) {
         Ok(_) => ExitCode::SUCCESS,
         Err(e) => {
+            // Whose address it is: the command line's or the configuration's.
+            let whose = if args.listen.is_some() {
+                "--listen"
+            } else {
+                "the configured device address (Description.xml)"
+            };
+            let hint = if e.kind() == std::io::ErrorKind::AddrNotAvailable {
+                format!("; {whose} is not an address of this machine: try --listen 127.0.0.1:PORT or 0.0.0.0:PORT")
+            } else {
+                String::new()
+            };
             eprintln!(
-                "error: cannot open the {} socket on {}: {e} (state ERROR 112600){}",
+                "error: cannot open the {} socket on {} ({whose}): {e} (state ERROR 112600){hint}",
                 if opts.tcp { "TCP" } else { "UDP" },
                 opts.listen,
-                if e.kind() == std::io::ErrorKind::AddrNotAvailable {
-                    "; the configured address is not on this machine: try --listen 127.0.0.1:PORT or 0.0.0.0:PORT"
-                } else {
-                    ""
-                }
             );
             ExitCode::FAILURE
         }

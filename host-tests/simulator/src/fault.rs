@@ -23,7 +23,12 @@ pub enum Fault {
 
 pub const SPECS: &str = "drop:P, duplicate:P, reorder:P, pause:CYCLE:MS, garbage:P, oversize:P, second-port:CYCLE (P in percent)";
 
+/// The faults that need datagrams (a TCP stream has no garbage datagram,
+/// no size limit per message and no second source port).
+pub const UDP_ONLY: &str = "garbage, oversize and second-port";
+
 impl Fault {
+    /// Reads `--fault` text; an error says what the kind needs.
     pub fn parse(spec: &str) -> Result<Fault, String> {
         let parts: Vec<&str> = spec.split(':').collect();
         let pct = |s: &str| -> Result<f64, String> {
@@ -47,8 +52,34 @@ impl Fault {
             ["garbage", p] => Fault::Garbage(pct(p)?),
             ["oversize", p] => Fault::Oversize(pct(p)?),
             ["second-port", from] => Fault::SecondPort { from: num(from)? },
-            _ => return Err(format!("--fault {spec}: unknown; one of {SPECS}")),
+            [kind, ..] => {
+                let needs = match *kind {
+                    "drop" | "duplicate" | "reorder" | "garbage" | "oversize" => {
+                        format!("{kind} needs a percentage: {kind}:P, e.g. {kind}:1")
+                    }
+                    "pause" => "pause needs a cycle and a length: pause:CYCLE:MS (stop sending for MS ms at cycle CYCLE), e.g. pause:100:50".to_string(),
+                    "second-port" => "second-port needs the cycle it starts at: second-port:CYCLE, e.g. second-port:200".to_string(),
+                    _ => format!("no such fault; one of {SPECS}"),
+                };
+                return Err(format!("--fault {spec}: {needs}"));
+            }
+            [] => return Err(format!("--fault: empty; one of {SPECS}")),
         })
+    }
+}
+
+/// The `--fault` spelling, as a user writes it.
+impl std::fmt::Display for Fault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Fault::Drop(p) => write!(f, "drop:{p}"),
+            Fault::Duplicate(p) => write!(f, "duplicate:{p}"),
+            Fault::Reorder(p) => write!(f, "reorder:{p}"),
+            Fault::Pause { at, ms } => write!(f, "pause:{at}:{ms}"),
+            Fault::Garbage(p) => write!(f, "garbage:{p}"),
+            Fault::Oversize(p) => write!(f, "oversize:{p}"),
+            Fault::SecondPort { from } => write!(f, "second-port:{from}"),
+        }
     }
 }
 
@@ -136,7 +167,9 @@ mod tests {
             Ok(Fault::SecondPort { from: 7 })
         );
         assert!(Fault::parse("drop:150").unwrap_err().contains("percentage"));
-        assert!(Fault::parse("explode:1").unwrap_err().contains("unknown"));
+        assert!(Fault::parse("explode:1")
+            .unwrap_err()
+            .contains("no such fault"));
     }
 
     #[test]
@@ -153,5 +186,23 @@ mod tests {
             (0..50).map(|c| f.plan(c).drop).collect()
         };
         assert_eq!(a, b);
+    }
+
+    #[test]
+    fn errors_say_what_a_kind_needs_and_faults_print_as_typed() {
+        let e = Fault::parse("pause:10").unwrap_err();
+        assert!(
+            e.contains("pause:CYCLE:MS") && e.contains("pause:100:50"),
+            "{e}"
+        );
+        let e = Fault::parse("drop").unwrap_err();
+        assert!(e.contains("drop needs a percentage: drop:P"), "{e}");
+        let e = Fault::parse("second-port").unwrap_err();
+        assert!(e.contains("second-port:CYCLE"), "{e}");
+        let e = Fault::parse("jitter:3").unwrap_err();
+        assert!(e.contains("no such fault; one of drop:P"), "{e}");
+        for spec in ["drop:1.5", "pause:100:50", "second-port:200", "garbage:1"] {
+            assert_eq!(Fault::parse(spec).unwrap().to_string(), spec);
+        }
     }
 }

@@ -178,7 +178,7 @@ impl Link {
         let local = stream.local_addr()?;
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
-            let mut framer = Box::new(rri_firmware::tcp::Framer::<65_536>::new());
+            let mut framer = Box::new(rri_framing::Framer::<65_536>::new());
             let mut chunk = [0u8; 8192];
             while !flag.load(Ordering::Relaxed) {
                 match reader.read(&mut chunk) {
@@ -369,7 +369,19 @@ impl Sim<'_> {
             Ok(r) => r,
             Err(e) => {
                 self.s.malformed += 1;
-                self.s.first_error.get_or_insert(e);
+                let device = &self.device.name;
+                let expected = self.reply_prop.wire();
+                let why = match root.as_deref() {
+                    // The layout's own reply, but not as this device has it.
+                    Some(r) if r == expected => format!(
+                        "the reply <{r}> does not match device {device}'s layout ({e}): is the sensor built for another device?"
+                    ),
+                    Some(r) => format!(
+                        "a reply <{r}> is no message device {device} sends (expected <{expected}>): is the sensor built for another device, or with another RRI_REPLY (--reply)?"
+                    ),
+                    None => e,
+                };
+                self.s.first_error.get_or_insert(why);
                 return;
             }
         };
@@ -391,10 +403,12 @@ impl Sim<'_> {
         } else {
             w.answered = true;
             let index = w.index;
-            let sent = w.sent;
             self.cycles[index].reply_us = Some(self.us(at));
             self.s.answered += 1;
-            if at.duration_since(sent) > Duration::from_millis(u64::from(self.s.rate_ms)) {
+            // One definition of late everywhere (summary, CSV, plot):
+            // reply time minus actual send time, in µs, beyond one cycle.
+            let latency_us = self.us(at).saturating_sub(self.cycles[index].sent_us);
+            if latency_us > u64::from(self.s.rate_ms) * 1000 {
                 self.s.late += 1;
                 self.sup.late_in_row += 1;
             }
@@ -529,6 +543,24 @@ pub fn run(
             opts.rate_ms
         ));
     }
+    if opts.cycles == 0 {
+        return Err("--cycles 0: nothing to send; give at least 1".into());
+    }
+    // Every output is checked before the first message, so a bad path
+    // costs no run.
+    for (flag, path) in [
+        ("--csv", &opts.csv),
+        ("--plot", &opts.plot),
+        ("--pcap", &opts.pcap),
+        ("--json", &opts.json),
+    ] {
+        if let Some(p) = path {
+            std::fs::File::create(p).map_err(|e| format!("{flag} {}: {e}", p.display()))?;
+        }
+    }
+    if opts.plot.is_some() {
+        report::ensure_font().map_err(|e| format!("--plot: {e}"))?;
+    }
     let sends = sends(opts, device)?;
     // One controller cycle of the simulation: every period is a multiple.
     let tick_ms = sends.iter().fold(0, |g, &(_, ms)| gcd(g, ms));
@@ -543,7 +575,10 @@ pub fn run(
     let faults = Faults::new(opts.faults.clone(), opts.seed);
     if opts.tcp {
         if let Some(f) = faults.udp_only() {
-            return Err(format!("--fault {f:?} only works over UDP"));
+            return Err(format!(
+                "--fault {f} only works over UDP ({} need datagrams)",
+                fault::UDP_ONLY
+            ));
         }
     }
     let link = if opts.tcp {
@@ -597,6 +632,7 @@ pub fn run(
             target: opts.to.to_string(),
             transport: if opts.tcp { "TCP" } else { "UDP" }.into(),
             rate_ms: tick_ms,
+            paced: opts.pacing,
             cycles: opts.cycles,
             ..Summary::default()
         },
@@ -629,8 +665,9 @@ pub fn run(
     // plan's index.
     let mut m: u64 = 0;
     for c in 0..opts.cycles {
+        let planned = schedule;
         if opts.pacing {
-            sim.pump(schedule, None);
+            sim.pump(planned, None);
             schedule += tick;
         }
         // S1 at send time: were the last cycle's messages answered within
@@ -664,6 +701,7 @@ pub fn run(
             }
             let plan = faults.plan(m);
             if plan.pause_ms > 0 {
+                sim.s.injected.pauses += 1;
                 sim.transition(&format!("pausing {} ms (fault)", plan.pause_ms));
                 let resume = Instant::now() + Duration::from_millis(plan.pause_ms);
                 sim.pump(resume, None);
@@ -676,6 +714,10 @@ pub fn run(
                 motion.value(f, c, t)
             });
             let now = Instant::now();
+            if opts.pacing && plan.pause_ms == 0 {
+                let lag = now.saturating_duration_since(planned).as_micros() as u64;
+                sim.s.send_lag_max_us = sim.s.send_lag_max_us.max(lag);
+            }
             let index = sim.cycles.len();
             sim.cycles.push(Cycle {
                 cycle: c,
@@ -686,8 +728,14 @@ pub fn run(
                 property: which,
             });
             if plan.drop {
+                sim.s.injected.dropped += 1;
                 continue;
             }
+            let inj = &mut sim.s.injected;
+            inj.duplicated += u64::from(plan.duplicate);
+            inj.garbage += u64::from(plan.garbage);
+            inj.oversize += u64::from(plan.oversize);
+            inj.second_port += u64::from(plan.second_port);
             sim.waiting.insert(
                 id,
                 Waiting {
@@ -700,6 +748,7 @@ pub fn run(
             sim.s.sent += 1;
             previous.push(id);
             if plan.reorder && held.is_none() {
+                sim.s.injected.reordered += 1;
                 held = Some((id, msg, plan.second_port));
             } else {
                 sim.send(msg.as_bytes(), plan.second_port)?;
@@ -707,8 +756,14 @@ pub fn run(
                     sim.send(msg.as_bytes(), plan.second_port)?;
                 }
                 if let Some((held_id, m, second)) = held.take() {
+                    // Latency and lateness count from the actual send.
+                    let now = Instant::now();
+                    let at_us = sim.us(now);
                     if let Some(w) = sim.waiting.get_mut(&held_id) {
-                        w.sent = Instant::now();
+                        w.sent = now;
+                        if let Some(c) = sim.cycles.get_mut(w.index) {
+                            c.sent_us = at_us;
+                        }
                     }
                     sim.send(m.as_bytes(), second)?;
                 }
@@ -734,15 +789,22 @@ pub fn run(
         }
         if c % 50 == 0 {
             sim.device_lines();
-            let elapsed = start.elapsed().as_secs_f64().max(1e-9);
-            sim.bar.set_position(c);
+            let elapsed = start.elapsed().as_secs_f64();
+            // A rate over less than a second is noise (the first reading
+            // would be thousands of messages per second).
+            let rate = if elapsed >= 1.0 {
+                format!("{:.0} msg/s, ", sim.s.sent as f64 / elapsed)
+            } else {
+                String::new()
+            };
+            // Message first: one redraw shows both with the same counts.
             sim.bar.set_message(format!(
-                "{:.0} msg/s, answered {}, late {}, lost {}",
-                sim.s.sent as f64 / elapsed,
+                "{rate}answered {}, late {}, lost {}",
                 sim.s.answered,
                 sim.s.late,
                 sim.unanswered(Instant::now())
             ));
+            sim.bar.set_position(c + 1);
         }
     }
     if let Some((_, m, second)) = held.take() {
@@ -800,19 +862,29 @@ pub fn run(
     }
     s.elapsed_s = start.elapsed().as_secs_f64();
     let rate_us = u64::from(tick_ms) * 1000;
+    // Every output that can be written is; the others are reported with
+    // the summary (the JSON last, so it lists them).
+    let mut errors = Vec::new();
     if let Some(p) = &opts.csv {
-        report::write_csv(p, &sim.cycles, rate_us)
-            .map_err(|e| format!("--csv {}: {e}", p.display()))?;
-    }
-    if let Some(p) = &opts.json {
-        report::write_json(p, &s).map_err(|e| format!("--json {}: {e}", p.display()))?;
+        if let Err(e) = report::write_csv(p, &sim.cycles, rate_us) {
+            errors.push(format!("--csv {}: {e}", p.display()));
+        }
     }
     if let Some(p) = &opts.plot {
-        report::write_plot(p, &sim.cycles, rate_us)?;
+        if let Err(e) = report::write_plot(p, &sim.cycles, rate_us, &s, start_unix_us) {
+            errors.push(format!("--plot {}: {e}", p.display()));
+        }
     }
     if let Some(p) = &opts.pcap {
-        report::write_pcap(p, &sim.packets, start_unix_us, opts.tcp)
-            .map_err(|e| format!("--pcap {}: {e}", p.display()))?;
+        if let Err(e) = report::write_pcap(p, &sim.packets, start_unix_us, opts.tcp) {
+            errors.push(format!("--pcap {}: {e}", p.display()));
+        }
+    }
+    s.output_errors = errors;
+    if let Some(p) = &opts.json {
+        if let Err(e) = report::write_json(p, &s) {
+            s.output_errors.push(format!("--json {}: {e}", p.display()));
+        }
     }
     Ok((s, sim.cycles))
 }

@@ -1,0 +1,156 @@
+//! `cargo robot -- --gsi DIR [--device NAME] --to ADDR [--cycles N]
+//! [--rate-ms 4] [--send NAME=MS]… [--reply NAME] [--tcp] [--csv FILE]
+//! [--plot FILE.svg|.png] [--pcap FILE] [--json FILE] [--fault SPEC]…`
+//!
+//! Plays the robot controller against any RRI sensor. Exit status 0 if and
+//! only if supervision never tripped, every reply was correct and every
+//! output was written; 1 with the reason on stderr otherwise; 2 for bad
+//! arguments (clap's usage errors) or a bad GSI folder.
+
+use clap::Parser;
+use rri_robot::fault::{Fault, SPECS, UDP_ONLY};
+use rri_robot::{load, run, RobotOptions};
+use std::io::IsTerminal;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "cargo robot",
+    about = "Play the ABB robot controller's side of RRI against any sensor, from its GSI folder",
+    after_help = format!(
+        "Faults: {SPECS}; {UDP_ONLY} only over UDP.\n\
+         Exit status: 0 when supervision never tripped, every reply was right and every output was written; 1 otherwise; 2 for bad arguments or a bad GSI folder."
+    )
+)]
+struct Args {
+    /// The controller's HOME/GSI folder (Settings.xml and one folder per device).
+    #[arg(long, value_name = "DIR")]
+    gsi: PathBuf,
+    /// The client of Settings.xml (required when it lists several).
+    #[arg(long, value_name = "NAME")]
+    device: Option<String>,
+    /// The sensor's address, e.g. 127.0.0.1:3002.
+    #[arg(long, value_name = "ADDR:PORT")]
+    to: SocketAddr,
+    /// Controller cycles to run (with --send: cycles of the greatest common period).
+    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..))]
+    cycles: u64,
+    /// Send period of the default property, a positive multiple of 4 ms.
+    #[arg(long, default_value_t = 4, value_parser = multiple_of_4)]
+    rate_ms: u32,
+    /// Send property NAME every MS ms (repeatable, one SiSetCyclic each, one Id sequence);
+    /// default: the first property the controller sends, every --rate-ms.
+    #[arg(long, value_name = "NAME=MS", value_parser = send_spec)]
+    send: Vec<(String, u32)>,
+    /// The property the device answers with (its RRI_REPLY); default $RRI_REPLY, else the
+    /// first property the device sends.
+    #[arg(long, value_name = "NAME")]
+    reply: Option<String>,
+    /// TCP instead of UDP (M10 framing).
+    #[arg(long)]
+    tcp: bool,
+    /// One row per message: id, send and reply time, latency, late, verdict, property.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+    /// Latency histogram and latency over time (.svg or .png).
+    #[arg(long, value_name = "FILE", value_parser = plot_path)]
+    plot: Option<PathBuf>,
+    /// The exchanged messages, for Wireshark.
+    #[arg(long, value_name = "FILE")]
+    pcap: Option<PathBuf>,
+    /// The summary, for scripts.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Inject a fault (repeatable), e.g. drop:1 or pause:100:50.
+    #[arg(long, value_name = "SPEC", value_parser = Fault::parse)]
+    fault: Vec<Fault>,
+    /// Seed of the fault injection (the same seed gives the same faults).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// The first message Id (to watch the u32 wrap).
+    #[arg(long, default_value_t = 1)]
+    first_id: u32,
+    /// Send the next message as soon as the last is answered (lock-step).
+    #[arg(long)]
+    no_pacing: bool,
+    /// No live progress line (it is shown on a terminal).
+    #[arg(long)]
+    no_progress: bool,
+}
+
+fn multiple_of_4(text: &str) -> Result<u32, String> {
+    match text.parse::<u32>() {
+        Ok(ms) if ms > 0 && ms % 4 == 0 => Ok(ms),
+        _ => Err("must be a positive multiple of 4 (the controller's cycle)".into()),
+    }
+}
+
+/// `NAME=MS` of `--send`.
+fn send_spec(text: &str) -> Result<(String, u32), String> {
+    let (name, ms) = text
+        .split_once('=')
+        .ok_or("expected NAME=MS, e.g. RobData=4")?;
+    Ok((name.trim().to_string(), multiple_of_4(ms.trim())?))
+}
+
+fn plot_path(text: &str) -> Result<PathBuf, String> {
+    let p = PathBuf::from(text);
+    match p.extension().and_then(|e| e.to_str()) {
+        Some("svg" | "png") => Ok(p),
+        _ => Err("the file must end in .svg or .png".into()),
+    }
+}
+
+fn options(a: Args) -> RobotOptions {
+    let mut o = RobotOptions::new(a.gsi, a.to);
+    o.device = a.device;
+    o.cycles = a.cycles;
+    o.rate_ms = a.rate_ms;
+    o.sends = a.send;
+    o.reply = a.reply.or_else(|| {
+        std::env::var("RRI_REPLY")
+            .ok()
+            .filter(|v| !v.trim().is_empty())
+    });
+    o.tcp = a.tcp;
+    o.csv = a.csv;
+    o.plot = a.plot;
+    o.pcap = a.pcap;
+    o.json = a.json;
+    o.faults = a.fault;
+    o.seed = a.seed;
+    o.first_id = a.first_id;
+    o.pacing = !a.no_pacing;
+    o.progress = !a.no_progress && std::io::stderr().is_terminal();
+    o
+}
+
+fn main() -> ExitCode {
+    let opts = options(Args::parse());
+    let device = match load(&opts) {
+        Ok(d) => d,
+        Err(e) => {
+            eprintln!("{e}");
+            return ExitCode::from(2);
+        }
+    };
+    let mut out = std::io::stdout();
+    match run(&opts, &device, &mut out) {
+        Ok((summary, _)) => {
+            let _ = summary.print(&mut out);
+            match summary.failure() {
+                None => ExitCode::SUCCESS,
+                Some(reason) => {
+                    eprintln!("error: {reason}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
