@@ -10,6 +10,7 @@
 //! summarises: sent, answered, late, lost, wrong Id, malformed, latency
 //! percentiles, and per property.
 
+pub mod args;
 pub mod fault;
 pub mod motion;
 pub mod numbers;

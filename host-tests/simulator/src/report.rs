@@ -425,6 +425,12 @@ fn whole(v: &f64) -> String {
     format!("{v:.0}")
 }
 
+/// Tick labels of seconds: `0.5`, `2` (not `2.0`).
+fn seconds(v: &f64) -> String {
+    let s = format!("{v:.1}");
+    s.strip_suffix(".0").map(String::from).unwrap_or(s)
+}
+
 fn draw<DB: plotters::prelude::DrawingBackend>(
     root: plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
     d: &PlotData,
@@ -488,6 +494,7 @@ where
     t.configure_mesh()
         .x_desc("time (s)")
         .y_desc("latency (µs)")
+        .x_label_formatter(&seconds)
         .y_label_formatter(&whole)
         .draw()?;
     t.draw_series(
@@ -673,6 +680,14 @@ pub fn write_pcap(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tick_labels_without_a_trailing_zero() {
+        assert_eq!(
+            (whole(&250.0), seconds(&2.0), seconds(&0.5)),
+            ("250".into(), "2".into(), "0.5".into())
+        );
+    }
 
     #[test]
     fn utc_dates() {

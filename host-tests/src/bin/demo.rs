@@ -8,6 +8,7 @@
 
 use clap::Parser;
 use host_tests::qemu::{self, Boot, Qemu};
+use host_tests::robot::args::{plot_path, Properties};
 use host_tests::robot::{run, RobotOptions};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -28,28 +29,10 @@ struct Args {
     #[arg(long, default_value_t = 2500, value_parser = clap::value_parser!(u64).range(1..))]
     cycles: u64,
     /// Write the simulator's latency plot (.svg or .png) here.
-    #[arg(long)]
+    #[arg(long, value_parser = plot_path)]
     plot: Option<PathBuf>,
-    /// Send property NAME every MS ms (repeatable, one SiSetCyclic each,
-    /// M11); default: the first property the controller sends, every 4 ms.
-    #[arg(long, value_name = "NAME=MS", value_parser = send_spec)]
-    send: Vec<(String, u32)>,
-    /// The property the firmware answers with (its build's RRI_REPLY);
-    /// default $RRI_REPLY, else the first property the device sends.
-    #[arg(long, value_name = "NAME")]
-    reply: Option<String>,
-}
-
-/// `NAME=MS` of `--send`.
-fn send_spec(text: &str) -> Result<(String, u32), String> {
-    let (name, ms) = text
-        .split_once('=')
-        .ok_or_else(|| format!("expected NAME=MS, e.g. RobData=4, not `{text}`"))?;
-    let ms = ms
-        .trim()
-        .parse()
-        .map_err(|_| format!("MS in `{text}` is a number of milliseconds"))?;
-    Ok((name.trim().to_string(), ms))
+    #[command(flatten)]
+    properties: Properties,
 }
 
 fn main() -> ExitCode {
@@ -114,16 +97,11 @@ fn demo(args: &Args) -> Result<(), String> {
     opts.cycles = args.cycles;
     // The transport the configuration says (the TCP demo's is TCP).
     opts.tcp = device.channel.protocol == gsi_config::Protocol::Tcp;
-    opts.sends = args.send.clone();
-    opts.reply = args.reply.clone().or_else(|| {
-        std::env::var("RRI_REPLY")
-            .ok()
-            .filter(|v| !v.trim().is_empty())
-    });
+    args.properties.apply(&mut opts);
     opts.plot = args.plot.clone();
     opts.progress = std::io::stderr().is_terminal();
     opts.device_log = Some(board.new_lines.clone());
-    match args.send.as_slice() {
+    match args.properties.send.as_slice() {
         [] => println!("== robot simulator: {} cycles every 4 ms", args.cycles),
         sends => println!(
             "== robot simulator: {} cycles, sending {}",

@@ -8,6 +8,7 @@
 //! arguments (clap's usage errors) or a bad GSI folder.
 
 use clap::Parser;
+use rri_robot::args::{multiple_of_4, plot_path, Properties};
 use rri_robot::fault::{Fault, SPECS, UDP_ONLY};
 use rri_robot::{load, run, RobotOptions};
 use std::io::IsTerminal;
@@ -40,14 +41,8 @@ struct Args {
     /// Send period of the default property, a positive multiple of 4 ms.
     #[arg(long, default_value_t = 4, value_parser = multiple_of_4)]
     rate_ms: u32,
-    /// Send property NAME every MS ms (repeatable, one SiSetCyclic each, one Id sequence);
-    /// default: the first property the controller sends, every --rate-ms.
-    #[arg(long, value_name = "NAME=MS", value_parser = send_spec)]
-    send: Vec<(String, u32)>,
-    /// The property the device answers with (its RRI_REPLY); default $RRI_REPLY, else the
-    /// first property the device sends.
-    #[arg(long, value_name = "NAME")]
-    reply: Option<String>,
+    #[command(flatten)]
+    properties: Properties,
     /// TCP instead of UDP (M10 framing).
     #[arg(long)]
     tcp: bool,
@@ -80,40 +75,12 @@ struct Args {
     no_progress: bool,
 }
 
-fn multiple_of_4(text: &str) -> Result<u32, String> {
-    match text.parse::<u32>() {
-        Ok(ms) if ms > 0 && ms % 4 == 0 => Ok(ms),
-        _ => Err("must be a positive multiple of 4 (the controller's cycle)".into()),
-    }
-}
-
-/// `NAME=MS` of `--send`.
-fn send_spec(text: &str) -> Result<(String, u32), String> {
-    let (name, ms) = text
-        .split_once('=')
-        .ok_or("expected NAME=MS, e.g. RobData=4")?;
-    Ok((name.trim().to_string(), multiple_of_4(ms.trim())?))
-}
-
-fn plot_path(text: &str) -> Result<PathBuf, String> {
-    let p = PathBuf::from(text);
-    match p.extension().and_then(|e| e.to_str()) {
-        Some("svg" | "png") => Ok(p),
-        _ => Err("the file must end in .svg or .png".into()),
-    }
-}
-
 fn options(a: Args) -> RobotOptions {
     let mut o = RobotOptions::new(a.gsi, a.to);
     o.device = a.device;
     o.cycles = a.cycles;
     o.rate_ms = a.rate_ms;
-    o.sends = a.send;
-    o.reply = a.reply.or_else(|| {
-        std::env::var("RRI_REPLY")
-            .ok()
-            .filter(|v| !v.trim().is_empty())
-    });
+    a.properties.apply(&mut o);
     o.tcp = a.tcp;
     o.csv = a.csv;
     o.plot = a.plot;

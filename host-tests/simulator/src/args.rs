@@ -1,0 +1,73 @@
+//! Command-line options shared by every tool that drives the simulator
+//! (`cargo robot`, `cargo demo`, …), defined once with clap so their
+//! spelling, help and errors agree.
+
+use crate::RobotOptions;
+use std::path::PathBuf;
+
+/// Which properties a run sends and which one it expects back (M11).
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct Properties {
+    /// Send property NAME every MS ms (repeatable, one SiSetCyclic each, one Id sequence);
+    /// default: the first property the controller sends, every cycle.
+    #[arg(long, value_name = "NAME=MS", value_parser = send_spec)]
+    pub send: Vec<(String, u32)>,
+    /// The property the device answers with (its RRI_REPLY); default $RRI_REPLY, else the
+    /// first property the device sends.
+    #[arg(long, value_name = "NAME")]
+    pub reply: Option<String>,
+}
+
+impl Properties {
+    /// Into the simulator's options (`RRI_REPLY` from the environment when
+    /// `--reply` is not given, as the firmware's build reads it).
+    pub fn apply(&self, o: &mut RobotOptions) {
+        o.sends = self.send.clone();
+        o.reply = self.reply.clone().or_else(|| {
+            std::env::var("RRI_REPLY")
+                .ok()
+                .filter(|v| !v.trim().is_empty())
+        });
+    }
+}
+
+/// A period: a positive multiple of 4 ms (the controller's cycle).
+pub fn multiple_of_4(text: &str) -> Result<u32, String> {
+    match text.trim().parse::<u32>() {
+        Ok(ms) if ms > 0 && ms % 4 == 0 => Ok(ms),
+        _ => Err("must be a positive multiple of 4 (the controller's cycle)".into()),
+    }
+}
+
+/// `NAME=MS` of `--send`.
+pub fn send_spec(text: &str) -> Result<(String, u32), String> {
+    let (name, ms) = text
+        .split_once('=')
+        .ok_or("expected NAME=MS, e.g. RobData=4")?;
+    Ok((name.trim().to_string(), multiple_of_4(ms)?))
+}
+
+/// `--plot`: an .svg or .png file.
+pub fn plot_path(text: &str) -> Result<PathBuf, String> {
+    let p = PathBuf::from(text);
+    match p.extension().and_then(|e| e.to_str()) {
+        Some("svg" | "png") => Ok(p),
+        _ => Err("the file must end in .svg or .png".into()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn specs() {
+        assert_eq!(send_spec("RobData=16"), Ok(("RobData".into(), 16)));
+        assert!(send_spec("RobData").is_err());
+        assert!(send_spec("RobData=6")
+            .unwrap_err()
+            .contains("multiple of 4"));
+        assert!(plot_path("x.gif").is_err());
+        assert_eq!(plot_path("t/x.png"), Ok(PathBuf::from("t/x.png")));
+    }
+}
