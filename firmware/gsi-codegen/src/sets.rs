@@ -268,17 +268,31 @@ fn emit_robot_set(e: &mut Emitter, d: &Device, id: &Idents, props: &[usize]) {
     e.close("");
     e.blank();
     e.open("fn field(&self, property: usize, index: usize) -> Option<FieldRef<'_>>");
+    emit_dispatch(e, d, id, props, "_ => None,", |message, field| {
+        format!("{message}::field(&self.{field}, index)")
+    });
+    e.close("");
+    e.close("");
+}
+
+/// `match property { 0 => …, 1 => …, <fallback> }`: one arm per property,
+/// built by `arm` from its message type and struct field.
+fn emit_dispatch(
+    e: &mut Emitter,
+    d: &Device,
+    id: &Idents,
+    props: &[usize],
+    fallback: &str,
+    arm: impl Fn(&str, &str) -> String,
+) {
     e.open("match property");
     for (pos, &i) in props.iter().enumerate() {
         e.line(format!(
-            "{pos} => {}::field(&self.{}, index),",
-            id.messages[i],
-            field_name(d, i)
+            "{pos} => {},",
+            arm(&id.messages[i], &field_name(d, i))
         ));
     }
-    e.line("_ => None,");
-    e.close("");
-    e.close("");
+    e.line(fallback);
     e.close("");
 }
 
@@ -299,29 +313,20 @@ fn emit_device_set(e: &mut Emitter, d: &Device, id: &Idents, props: &[usize]) {
         e.line(format!("    {arg}"));
     }
     e.open(") -> Result<Encoded, BufferTooSmall>");
-    e.open("match property");
-    for (pos, &i) in props.iter().enumerate() {
-        e.line(format!(
-            "{pos} => encode::<{}>(&self.{}, id, ts, format, out),",
-            id.messages[i],
-            field_name(d, i)
-        ));
-    }
-    e.line("_ => Err(BufferTooSmall),");
-    e.close("");
+    emit_dispatch(
+        e,
+        d,
+        id,
+        props,
+        "_ => Err(BufferTooSmall),",
+        |message, field| format!("encode::<{message}>(&self.{field}, id, ts, format, out)"),
+    );
     e.close("");
     e.blank();
     e.open("fn field_mut(&mut self, property: usize, index: usize) -> Option<FieldMut<'_>>");
-    e.open("match property");
-    for (pos, &i) in props.iter().enumerate() {
-        e.line(format!(
-            "{pos} => {}::field_mut(&mut self.{}, index),",
-            id.messages[i],
-            field_name(d, i)
-        ));
-    }
-    e.line("_ => None,");
-    e.close("");
+    emit_dispatch(e, d, id, props, "_ => None,", |message, field| {
+        format!("{message}::field_mut(&mut self.{field}, index)")
+    });
     e.close("");
     e.close("");
 }
