@@ -6,28 +6,22 @@
 
 use super::emit::{self, Emitter};
 use super::{default_expr, rust_type, Idents};
-use gsi_config::{Device, Property};
+use gsi_config::Device;
 
 /// Most properties per direction: the firmware's
 /// `properties::MAX_PROPERTIES`, which sizes the engine's per-property
 /// arrays.
 pub const MAX_PROPERTIES: usize = 16;
 
-/// The names a user may give for a property: its `Name` or its `Alias`,
-/// in any case (RAPID names are case-insensitive, G4).
-fn named(p: &Property, name: &str) -> bool {
-    p.name.eq_ignore_ascii_case(name) || p.wire().eq_ignore_ascii_case(name)
-}
-
 /// The position among the properties the device sends of the one a build
 /// setting names; the error lists the choices.
 pub fn device_property(device: &Device, setting: &str, name: &str) -> Result<usize, String> {
     let name = name.trim();
-    if let Some(i) = device.sent().position(|p| named(p, name)) {
+    if let Some(i) = device.sent().position(|p| p.is_named(name)) {
         return Ok(i);
     }
     let choices: Vec<&str> = device.sent().map(|p| p.name.as_str()).collect();
-    let why = match device.properties.iter().find(|p| named(p, name)) {
+    let why = match device.properties.iter().find(|p| p.is_named(name)) {
         Some(p) => format!(
             "property \"{}\" is Flag=\"{}\": the device never sends it",
             p.name,

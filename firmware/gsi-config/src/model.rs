@@ -281,6 +281,15 @@ impl Property {
     pub fn wire(&self) -> &str {
         self.alias.as_deref().unwrap_or(&self.name)
     }
+
+    /// Whether a user's `name` means this property: its `Name` or its
+    /// `Alias`, in any case (RAPID names are case-insensitive, G4). Build
+    /// settings (`RRI_REPLY`, `RRI_PERIODIC`) and the simulator's `--send`
+    /// / `--reply` all name properties this way.
+    pub fn is_named(&self, name: &str) -> bool {
+        let name = name.trim();
+        self.name.eq_ignore_ascii_case(name) || self.wire().eq_ignore_ascii_case(name)
+    }
 }
 
 /// One fully validated device.

@@ -479,23 +479,23 @@ fn find_property<'d>(
     name: &str,
     robot_sends: bool,
 ) -> Result<&'d Property, String> {
-    let named = |p: &&Property| {
-        p.name.eq_ignore_ascii_case(name.trim()) || p.wire().eq_ignore_ascii_case(name.trim())
-    };
     let (list, who): (Vec<&Property>, &str) = if robot_sends {
         (device.received().collect(), "the controller sends")
     } else {
         (device.sent().collect(), "the device sends")
     };
-    list.iter().copied().find(named).ok_or_else(|| {
-        let choices: Vec<&str> = list.iter().map(|p| p.name.as_str()).collect();
-        format!(
-            "no property \"{}\" that {who} in {}; choose one of: {}",
-            name.trim(),
-            device.name,
-            choices.join(", ")
-        )
-    })
+    list.iter()
+        .copied()
+        .find(|p| p.is_named(name))
+        .ok_or_else(|| {
+            let choices: Vec<&str> = list.iter().map(|p| p.name.as_str()).collect();
+            format!(
+                "no property \"{}\" that {who} in {}; choose one of: {}",
+                name.trim(),
+                device.name,
+                choices.join(", ")
+            )
+        })
 }
 
 /// The properties to send and their periods (M11): `--send`, or the first
