@@ -14,7 +14,7 @@
 use crate::engine::{Application, CycleInfo, Instant};
 use crate::properties::{DeviceSet, RobotSet};
 use crate::sample::SampleReader;
-use crate::schema::{FieldMut, FieldRef};
+use crate::schema::{FieldMut, FieldRef, MAX_FIELDS};
 use crate::value::Frame;
 use micromath::F32Ext;
 
@@ -91,9 +91,6 @@ impl<'a> DemoApp<'a> {
         }
     }
 }
-
-/// Most fields a record has (G3), so walking one by index is bounded.
-const MAX_FIELDS: usize = 64;
 
 fn first_frame<R: RobotSet>(robot: &R) -> Option<Frame> {
     (0..R::WIRE_NAMES.len()).find_map(|p| {

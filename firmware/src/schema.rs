@@ -129,9 +129,14 @@ impl FieldWire {
     }
 }
 
+/// Most fields a record has (G3; gsi-config refuses more). The decoder's
+/// duplicate check keeps one bit per field in a `u64`, and code that walks
+/// a record by index stops here at the latest.
+pub const MAX_FIELDS: usize = 64;
+
 /// A generated record: its fields by index, in Configuration order.
 pub trait Record {
-    /// Wire pieces of every field, in order (at most 64 fields).
+    /// Wire pieces of every field, in order (at most [`MAX_FIELDS`]).
     const FIELDS: &'static [FieldWire];
     /// The index of the field whose element name is `name`.
     fn field_index(name: &[u8]) -> Option<usize>;

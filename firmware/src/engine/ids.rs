@@ -73,7 +73,8 @@ impl IdTracker {
 ///   property's once the controller has shown that it numbers per
 ///   property.
 ///
-/// With one property both views are the same tracker fed the same Ids.
+/// With one property the two views would be the same, so only the
+/// channel's is kept (see [`ChannelIds::observe`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ChannelIds<const N: usize> {
     channel: IdTracker,
