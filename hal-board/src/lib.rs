@@ -10,7 +10,8 @@
 //! `nucleo-h743zi` (embassy-stm32; one shared `nucleo` module, one chip file
 //! each). Each board is one module behind one cargo feature and exports the
 //! same names (see [`board`]): `init()`, `Board`, `Net`, `Leds`, `Sampler`,
-//! `Watchdog`, `start_urgent_executor()`, `cycle_counter()`, `exit()`.
+//! `Watchdog`, `start_urgent_executor()`, `run_background()`, `cycle_counter()`,
+//! `exit()`.
 //! Chip-only dependencies are gated to `target_os = "none"`, so the host
 //! build (`cargo test`) never compiles them; the LAN9118 driver is plain
 //! logic over a register trait and is unit-tested on the host.

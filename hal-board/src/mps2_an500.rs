@@ -7,7 +7,9 @@
 //!   the timer queue; [`cycle_counter`] reads the raw 25 MHz count (under
 //!   `-icount shift=N` one count is `40 / 2^N` instructions: QEMU has no
 //!   working DWT cycle counter);
-//! - the urgent executor on spare IRQ 30 (network and cycle run there);
+//! - the urgent executor on spare IRQ 30 (network and cycle run there) and
+//!   the background executor on spare IRQ 31, with thread mode idling in
+//!   `wfi` (see [`run_background`]);
 //! - LEDs: the FPGA's two user LEDs; no ADC is modelled, so the sample
 //!   source has nothing and the firmware simulates its readings;
 //! - watchdog: the CMSDK watchdog (NMI, then reset);
@@ -16,7 +18,8 @@
 //!
 //! Interrupt priorities (lower is more urgent): SysTick 0 (it must never be
 //! starved for a whole period: the 64-bit time depends on it), NIC 0x40,
-//! urgent executor 0x80; thread mode below all.
+//! urgent executor 0x80, background executor 0xC0; the idle loop in thread
+//! mode below all.
 #![allow(unsafe_code)]
 
 use crate::lan9118::{self, Lan9118, Registers};
@@ -58,9 +61,12 @@ unsafe impl InterruptNumber for Irq {
 const LAN9118_IRQ: Irq = Irq(13);
 /// Not wired to any device on the AN500: free for the urgent executor.
 const URGENT_IRQ: Irq = Irq(30);
+/// Not wired either: the background executor's.
+const BACKGROUND_IRQ: Irq = Irq(31);
 const PRIO_SYSTICK: u8 = 0x00;
 const PRIO_NIC: u8 = 0x40;
 const PRIO_URGENT: u8 = 0x80;
+const PRIO_BACKGROUND: u8 = 0xc0;
 
 fn read32(addr: usize) -> u32 {
     // SAFETY: only called with the addresses of this board's registers.
@@ -113,6 +119,7 @@ pub fn init() -> Result<Board, InitError> {
         cp.SCB.set_priority(SystemHandler::SysTick, PRIO_SYSTICK);
         cp.NVIC.set_priority(LAN9118_IRQ, PRIO_NIC);
         cp.NVIC.set_priority(URGENT_IRQ, PRIO_URGENT);
+        cp.NVIC.set_priority(BACKGROUND_IRQ, PRIO_BACKGROUND);
     }
     let net = Lan9118::new(Mmio, MAC)?;
     NVIC::unpend(LAN9118_IRQ);
@@ -135,6 +142,26 @@ pub fn start_urgent_executor() -> SendSpawner {
     URGENT.start(URGENT_IRQ)
 }
 
+static BACKGROUND: InterruptExecutor = InterruptExecutor::new();
+
+/// Runs the background tasks (sampler, housekeeping) on an interrupt
+/// executor below the urgent one, and idles thread mode in `wfi`.
+///
+/// Why not embassy's thread-mode executor, as on the NUCLEO boards: it
+/// sleeps in `wfe`, which QEMU (7.2) implements as a yield, not a halt, so
+/// the emulator's vCPU thread would spin a whole host core while the
+/// firmware idles. On a two-core machine that core is taken from the robot
+/// simulator and from QEMU's own network thread, and replies arrive
+/// milliseconds late. `wfi` halts the vCPU until the next interrupt; every
+/// wake-up of a task here is an interrupt (its executor's pend), so nothing
+/// can be missed between a poll and the `wfi`.
+pub fn run_background(init: impl FnOnce(SendSpawner)) -> ! {
+    init(BACKGROUND.start(BACKGROUND_IRQ));
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
 /// Interrupts that fired with no handler (the firmware reports them).
 pub static SPURIOUS_IRQS: AtomicU32 = AtomicU32::new(0);
 
@@ -145,6 +172,8 @@ unsafe fn DefaultHandler(irqn: i16) {
         // SAFETY: IRQ 30 is the urgent executor's and nothing else's, and
         // the executor was started before the IRQ was unmasked.
         30 => unsafe { URGENT.on_interrupt() },
+        // SAFETY: likewise IRQ 31 and the background executor.
+        31 => unsafe { BACKGROUND.on_interrupt() },
         // NMI: the watchdog ran out. Reset now rather than at its second
         // timeout.
         -14 => cortex_m::peripheral::SCB::sys_reset(),

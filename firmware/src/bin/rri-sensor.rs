@@ -6,16 +6,18 @@
 //! - urgent executor (an interrupt, above everything but the time and NIC
 //!   interrupts): the network stack's runner and the cycle (receive →
 //!   engine → reply). Nothing else can delay an answer.
-//! - thread mode: the sampler (100 Hz), housekeeping (10 Hz: LEDs, the
-//!   watchdog, state changes and a counter line per second in the log) and,
-//!   in bench builds, the bench's record logger.
+//! - background (below the urgent executor: the board's
+//!   `run_background`, thread mode or a low interrupt): the sampler
+//!   (100 Hz), housekeeping (10 Hz: LEDs, the watchdog, state changes and a
+//!   counter line per second in the log) and, in bench builds, the bench's
+//!   record logger.
 //!
 //! The watchers never hold the engine: the cycle publishes a
 //! [`Snapshot`] after each turn and they read the latest one.
 #![no_std]
 #![no_main]
 
-use embassy_executor::{Executor, SendSpawner, Spawner};
+use embassy_executor::{SendSpawner, Spawner};
 use embassy_net::{Ipv4Address, Ipv4Cidr, Runner, Stack, StackResources, StaticConfigV4};
 use embassy_time::{Duration, Ticker};
 use hal_board::board;
@@ -108,9 +110,8 @@ fn main() -> ! {
     let urgent: SendSpawner = board::start_urgent_executor();
     spawn!(urgent, network(nic, b.seed, reader));
 
-    static THREAD: StaticCell<Executor> = StaticCell::new();
     let (sampler_source, leds, watchdog) = (b.sampler, b.leds, b.watchdog);
-    THREAD.init(Executor::new()).run(move |s: Spawner| {
+    board::run_background(move |s| {
         spawn!(s, sampler(sampler_source, writer));
         spawn!(s, housekeeping(leds, watchdog));
         #[cfg(feature = "bench")]

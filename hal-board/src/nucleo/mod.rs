@@ -38,7 +38,7 @@ mod chip;
 mod chip;
 
 use defmt_rtt as _;
-use embassy_executor::{InterruptExecutor, SendSpawner};
+use embassy_executor::{Executor, InterruptExecutor, SendSpawner, Spawner};
 use embassy_stm32::adc::{Adc, SampleTime};
 use embassy_stm32::eth::{Ethernet, GenericPhy, PacketQueue, Sma};
 use embassy_stm32::gpio::{Level, Output, Speed};
@@ -155,6 +155,15 @@ unsafe fn UART4() {
 pub fn start_urgent_executor() -> SendSpawner {
     interrupt::UART4.set_priority(Priority::P6);
     URGENT.start(interrupt::UART4)
+}
+
+/// Runs the background tasks (sampler, housekeeping) on embassy's
+/// thread-mode executor, which sleeps in `wfe` between polls (on silicon a
+/// real sleep; the QEMU board idles in `wfi` instead, see its
+/// `run_background`).
+pub fn run_background(init: impl FnOnce(Spawner)) -> ! {
+    static THREAD: static_cell::StaticCell<Executor> = static_cell::StaticCell::new();
+    THREAD.init(Executor::new()).run(init)
 }
 
 /// Core clock cycles (DWT): wraps every 2^32 / [`SYSCLK_HZ`] seconds.
