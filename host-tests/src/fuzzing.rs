@@ -309,8 +309,7 @@ pub fn cycle(data: &[u8]) {
             + s.dropped_invalid_source
             + s.dropped_throttled
             + s.dropped_decode
-            + s.dropped_encode
-            + s.dropped_no_reply;
+            + s.dropped_encode;
         assert_eq!(
             s.received,
             s.answered + dropped,

@@ -38,11 +38,6 @@ pub fn camel(name: &str) -> String {
     escape(out)
 }
 
-/// SCREAMING_SNAKE for constants.
-pub fn screaming(name: &str) -> String {
-    snake(name).trim_start_matches("r#").to_ascii_uppercase()
-}
-
 const KEYWORDS: &[&str] = &[
     "as", "async", "await", "break", "const", "continue", "dyn", "else", "enum", "extern", "false",
     "fn", "for", "gen", "if", "impl", "in", "let", "loop", "match", "mod", "move", "mut", "pub",
@@ -83,11 +78,5 @@ mod tests {
         assert_eq!(camel("rob_data"), "RobData");
         assert_eq!(camel("RobotData"), "RobotData");
         assert_eq!(camel("self"), "Self_");
-    }
-
-    #[test]
-    fn screaming_case() {
-        assert_eq!(screaming("RobData"), "ROB_DATA");
-        assert_eq!(screaming("type"), "TYPE");
     }
 }

@@ -76,8 +76,6 @@ pub enum DropReason {
     /// The reply did not fit the buffer (a wrong buffer size; never with
     /// one of the generated `MAX_SEND_LEN`).
     Encode,
-    /// The layout has no message the device sends: nothing to answer with.
-    NoReply,
 }
 
 /// Every counter of the engine. Counters saturate instead of wrapping.
@@ -100,7 +98,6 @@ pub struct Stats {
     pub dropped_throttled: u32,
     pub dropped_decode: u32,
     pub dropped_encode: u32,
-    pub dropped_no_reply: u32,
     /// Per [`DecodeErrorKind`], in the order of `DecodeErrorKind::ALL`.
     pub decode_errors: [u32; DecodeErrorKind::ALL.len()],
     /// S3: ids skipped (lost messages); a message that arrives late
@@ -163,7 +160,6 @@ impl Stats {
         dropped_throttled: 0,
         dropped_decode: 0,
         dropped_encode: 0,
-        dropped_no_reply: 0,
         decode_errors: [0; DecodeErrorKind::ALL.len()],
         lost: 0,
         duplicates: 0,
@@ -212,7 +208,6 @@ impl Stats {
                 }
             }
             DropReason::Encode => bump(&mut self.dropped_encode),
-            DropReason::NoReply => bump(&mut self.dropped_no_reply),
         }
     }
 
