@@ -8,8 +8,8 @@
 //! `MAX_ENCODED_LEN`, encoding cannot run out of space; a smaller buffer is
 //! an error, never an overrun.
 
-use super::number::Writer;
 use super::text::write_escaped;
+use super::writer::Writer;
 use crate::schema::{Body, FieldRef, Format, MessageCodec};
 use crate::value::{RriString, Time};
 

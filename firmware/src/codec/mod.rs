@@ -9,8 +9,10 @@
 pub mod decode;
 pub mod encode;
 mod exact;
+pub mod format;
 pub mod number;
 pub mod text;
+pub mod writer;
 
 pub use decode::{decode, DecodeError, DecodeErrorKind, Decoded, Tally, EXTRA_ITEMS};
 pub use encode::{encode, BufferTooSmall, Encoded};

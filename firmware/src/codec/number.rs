@@ -1,16 +1,12 @@
-//! Numbers on the wire (M5): parsing any decimal notation the controller
-//! writes, and writing fixed decimals without `core::fmt` float formatting
-//! (which costs ~25k instructions per message and ~16 KB of flash).
+//! Numbers read from the wire (M5): any decimal notation the controller
+//! writes, as `u32` Ids, `f32` reals and exact-microsecond times. Writing
+//! numbers is [`super::format`]'s.
 //!
-//! Every function here does bounded work: parsing is linear in the text,
-//! writing at most 40 integer digits plus the decimals.
+//! One scanner (`split_decimal`) reads every real and time; every
+//! function here does bounded work, linear in the text (at most
+//! [`MAX_NUMBER_LEN`] characters).
 
 use crate::value::Time;
-
-/// Most decimals the fixed-point writers support (time is held in µs).
-pub const MAX_DECIMALS: u8 = 6;
-
-const POW10: [u64; 7] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
 
 /// A number that could not be taken.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,63 +34,37 @@ pub fn trim(s: &[u8]) -> &[u8] {
     s.get(start..end).unwrap_or(&[])
 }
 
+/// Splits off a leading sign: whether it was `-`, and the rest.
+fn sign(t: &[u8]) -> (bool, &[u8]) {
+    match t.split_first() {
+        Some((b'-', rest)) => (true, rest),
+        Some((b'+', rest)) => (false, rest),
+        _ => (false, t),
+    }
+}
+
+/// The value of an ASCII digit, or `None`.
+#[inline]
+fn digit(b: u8) -> Option<u8> {
+    let d = b.wrapping_sub(b'0');
+    (d <= 9).then_some(d)
+}
+
 /// The robot's message `Id`: an unsigned 32-bit decimal (S3), optional `+`.
 pub fn parse_u32(text: &[u8]) -> Result<u32, NumberError> {
-    let t = trim(text);
-    let digits = t.strip_prefix(b"+").unwrap_or(t);
-    if digits.is_empty() {
+    let (negative, digits) = sign(trim(text));
+    if negative || digits.is_empty() {
         return Err(NumberError::Syntax);
     }
     let mut v: u32 = 0;
     for &b in digits {
-        if !b.is_ascii_digit() {
-            return Err(NumberError::Syntax);
-        }
+        let d = digit(b).ok_or(NumberError::Syntax)?;
         v = v
             .checked_mul(10)
-            .and_then(|v| v.checked_add(u32::from(b - b'0')))
+            .and_then(|v| v.checked_add(u32::from(d)))
             .ok_or(NumberError::OutOfRange)?;
     }
     Ok(v)
-}
-
-/// Checks the shape of a decimal float: sign, digits, optional fraction,
-/// optional exponent; no `inf`, `nan` or hex (which `f32::from_str` takes).
-fn is_decimal(t: &[u8]) -> bool {
-    let mut i = 0;
-    if matches!(t.first(), Some(b'+' | b'-')) {
-        i += 1;
-    }
-    let int_start = i;
-    while t.get(i).is_some_and(u8::is_ascii_digit) {
-        i += 1;
-    }
-    let mut digits = i - int_start;
-    if t.get(i) == Some(&b'.') {
-        i += 1;
-        let frac_start = i;
-        while t.get(i).is_some_and(u8::is_ascii_digit) {
-            i += 1;
-        }
-        digits += i - frac_start;
-    }
-    if digits == 0 {
-        return false;
-    }
-    if matches!(t.get(i), Some(b'e' | b'E')) {
-        i += 1;
-        if matches!(t.get(i), Some(b'+' | b'-')) {
-            i += 1;
-        }
-        let exp_start = i;
-        while t.get(i).is_some_and(u8::is_ascii_digit) {
-            i += 1;
-        }
-        if i == exp_start {
-            return false;
-        }
-    }
-    i == t.len()
 }
 
 /// Exact powers of ten in `f32` (10^10 = 2^10 × 5^10 still fits 24 bits).
@@ -106,138 +76,80 @@ const POW10_F64: [f64; 23] = [
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
-/// A decimal number split into `±mantissa × 10^exponent`, or why not.
+/// A decimal number as `±mantissa × 10^exponent`, its first 19
+/// significant digits kept (another one could overflow a `u64`).
 struct Decimal {
     negative: bool,
     mantissa: u64,
     exponent: i32,
-    /// More than 19 significant digits: the mantissa is cut, use the slow
-    /// (exact) path.
+    /// The first significant digit past the 19 kept (for rounding).
+    first_dropped: Option<u8>,
+    /// Some dropped digit is not zero: the mantissa is cut, so the fast
+    /// float paths do not apply.
     inexact: bool,
 }
 
-/// Splits decimal float text (already trimmed): sign, digits, optional
-/// fraction, optional exponent; no `inf`, `nan` or hex.
+/// The one decimal scanner: splits trimmed text into a [`Decimal`], or
+/// `None` when it is not `[sign] digits [. digits] [e [sign] digits]` with
+/// at least one mantissa digit (so no `inf`, `nan` or hex, which
+/// `f32::from_str` would take).
+// Inlined into both callers: the scan is the hot loop of every real.
+#[inline(always)]
 fn split_decimal(t: &[u8]) -> Option<Decimal> {
-    let (negative, rest) = match t.first() {
-        Some(b'-') => (true, t.get(1..).unwrap_or(&[])),
-        Some(b'+') => (false, t.get(1..).unwrap_or(&[])),
-        _ => (false, t),
-    };
-    let mut d = Decimal {
-        negative,
-        mantissa: 0,
-        exponent: 0,
-        inexact: false,
-    };
-    // Integer digits, then fraction digits: up to 19 significant digits go
-    // into the mantissa (another one cannot overflow a u64); the rest only
-    // moves the exponent or makes the value inexact.
+    let (negative, rest) = sign(t);
     const FULL: u64 = 1_000_000_000_000_000_000;
+    let mut mantissa: u64 = 0;
+    let mut exponent: i32 = 0;
+    let mut first_dropped = None;
+    let mut inexact = false;
+    let mut point = false;
     let mut i = 0;
     while let Some(&b) = rest.get(i) {
-        let digit = b.wrapping_sub(b'0');
-        if digit > 9 {
-            break;
-        }
-        if d.mantissa < FULL {
-            d.mantissa = d.mantissa * 10 + u64::from(digit);
-        } else {
-            d.inexact |= digit != 0;
-            d.exponent += 1;
-        }
-        i += 1;
-    }
-    let mut digits = i;
-    if rest.get(i) == Some(&b'.') {
-        i += 1;
-        let start = i;
-        while let Some(&b) = rest.get(i) {
-            let digit = b.wrapping_sub(b'0');
-            if digit > 9 {
-                break;
-            }
-            if d.mantissa < FULL {
-                d.mantissa = d.mantissa * 10 + u64::from(digit);
-                d.exponent -= 1;
+        if let Some(v) = digit(b) {
+            if mantissa < FULL {
+                mantissa = mantissa * 10 + u64::from(v);
+                exponent -= i32::from(point);
             } else {
-                d.inexact |= digit != 0;
+                // Past 19 significant digits: only the first one matters
+                // for rounding, any other only for exactness.
+                if first_dropped.is_none() {
+                    first_dropped = Some(v);
+                }
+                inexact |= v != 0;
+                exponent += i32::from(!point);
             }
-            i += 1;
-        }
-        digits += i - start;
-    }
-    if digits == 0 {
-        return None;
-    }
-    if let Some(b'e' | b'E') = rest.get(i) {
-        i += 1;
-        let negative_exp = match rest.get(i) {
-            Some(b'-') => {
-                i += 1;
-                true
-            }
-            Some(b'+') => {
-                i += 1;
-                false
-            }
-            _ => false,
-        };
-        let start = i;
-        let mut e: i32 = 0;
-        while let Some(&b) = rest.get(i) {
-            let digit = b.wrapping_sub(b'0');
-            if digit > 9 {
-                break;
-            }
-            // Clamp: anything this large is out of range anyway.
-            e = (e * 10 + i32::from(digit)).min(100_000);
-            i += 1;
-        }
-        if i == start {
-            return None;
-        }
-        d.exponent += if negative_exp { -e } else { e };
-    }
-    (i == rest.len()).then_some(d)
-}
-
-/// The common case of a robot's number in one pass: optional sign, at
-/// most 10 characters of digits and one point, no exponent (`1620.000`,
-/// `-0.0877707`). When the digits make an integer below 2^24, dividing it
-/// by an exact power of ten (at most 10^10) is one correctly rounded `f32`
-/// operation (Clinger's fast path); anything else returns `None` and takes
-/// the general path.
-fn plain_decimal(t: &[u8]) -> Option<f32> {
-    let (negative, digits) = match t.split_first() {
-        Some((b'-', rest)) => (true, rest),
-        Some((b'+', rest)) => (false, rest),
-        _ => (false, t),
-    };
-    if digits.is_empty() || digits.len() > 10 {
-        return None;
-    }
-    let mut m: u64 = 0;
-    let mut fraction: usize = 0;
-    let mut point = false;
-    let mut count = 0;
-    for &b in digits {
-        let d = b.wrapping_sub(b'0');
-        if d <= 9 {
-            m = m * 10 + u64::from(d);
-            count += 1;
-            fraction += usize::from(point);
         } else if b == b'.' && !point {
             point = true;
         } else {
-            return None;
+            break;
         }
+        i += 1;
     }
-    if count == 0 || m >= 1 << 24 {
+    // Everything scanned was a digit but the point: none means no number.
+    if i == usize::from(point) {
         return None;
     }
-    let v = m as f32 / *POW10_F32.get(fraction)?;
-    Some(if negative { -v } else { v })
+    if let Some(b'e' | b'E') = rest.get(i) {
+        let (negative_exp, exp) = sign(rest.get(i + 1..).unwrap_or(&[]));
+        if exp.is_empty() {
+            return None;
+        }
+        let mut e: i32 = 0;
+        for &b in exp {
+            // Clamp: anything this large is out of range anyway.
+            e = (e * 10 + i32::from(digit(b)?)).min(100_000);
+        }
+        exponent += if negative_exp { -e } else { e };
+    } else if i != rest.len() {
+        return None;
+    }
+    Some(Decimal {
+        negative,
+        mantissa,
+        exponent,
+        first_dropped,
+        inexact,
+    })
 }
 
 /// An RRI `real` (M5): any decimal float text, with sign and exponent,
@@ -246,26 +158,28 @@ fn plain_decimal(t: &[u8]) -> Option<f32> {
 /// [`NumberError::OutOfRange`].
 ///
 /// Fast paths (Clinger's): a mantissa of at most 24 bits and a power of
-/// ten up to 10^10 is one exact `f32` operation; at most 53 bits and 10^22
-/// is one exact `f64` operation, rounded once more to `f32` unless the
-/// `f64` result sits exactly on an `f32` midpoint (the only case where two
-/// roundings can differ from one). Everything else goes through
-/// [`super::exact`], exact with bounded work and no tables.
+/// ten up to 10^10 is one exact `f32` operation (a robot's `1620.000` or
+/// `-0.0877707`); at most 53 bits and 10^22 is one exact `f64` operation,
+/// rounded once more to `f32` unless the `f64` result sits exactly on an
+/// `f32` midpoint (the only case where two roundings can differ from one).
+/// Everything else goes through `codec::exact`, exact with bounded work
+/// and no tables.
 pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
     let t = trim(text);
     if t.len() > MAX_NUMBER_LEN {
         return Err(NumberError::TooLong);
     }
-    if let Some(v) = plain_decimal(t) {
-        return Ok(v);
-    }
     let d = split_decimal(t).ok_or(NumberError::Syntax)?;
     let exp = d.exponent.unsigned_abs() as usize;
+    // The robot's common case first, returned at once: below 2^24 × 10^10
+    // the result is finite.
+    if let (false, true, Some(&p)) = (d.inexact, d.mantissa < 1 << 24, POW10_F32.get(exp)) {
+        let m = d.mantissa as f32;
+        let v = if d.exponent < 0 { m / p } else { m * p };
+        return Ok(if d.negative { -v } else { v });
+    }
     let fast = if d.inexact {
         None
-    } else if let (true, Some(&p)) = (d.mantissa < 1 << 24, POW10_F32.get(exp)) {
-        let m = d.mantissa as f32;
-        Some(if d.exponent < 0 { m / p } else { m * p })
     } else if let (true, Some(&p)) = (d.mantissa < 1 << 53, POW10_F64.get(exp)) {
         let m = d.mantissa as f64;
         let v = if d.exponent < 0 { m / p } else { m * p };
@@ -279,17 +193,10 @@ pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
         None
     };
     let v = match fast {
-        Some(v) if d.negative => -v,
         Some(v) => v,
-        None => {
-            let v = super::exact::parse_magnitude(t)?;
-            if d.negative {
-                -v
-            } else {
-                v
-            }
-        }
+        None => super::exact::parse_magnitude(t)?,
     };
+    let v = if d.negative { -v } else { v };
     if v.is_finite() {
         Ok(v)
     } else {
@@ -311,67 +218,10 @@ pub fn parse_time(text: &[u8]) -> Result<Time, NumberError> {
     if t.len() > MAX_NUMBER_LEN {
         return Err(NumberError::TooLong);
     }
-    if !is_decimal(t) {
-        return Err(NumberError::Syntax);
-    }
-    let (negative, rest) = match t.first() {
-        Some(b'-') => (true, t.get(1..).unwrap_or(&[])),
-        Some(b'+') => (false, t.get(1..).unwrap_or(&[])),
-        _ => (false, t),
-    };
-    // Mantissa digits (up to 19 significant) and the power of ten they
-    // are scaled by.
-    let mut mantissa: u64 = 0;
-    let mut scale: i32 = 0;
-    let mut significant = 0u32;
-    // The first digit past 19 significant ones, for rounding.
-    let mut round_digit: Option<u8> = None;
-    let mut seen_dot = false;
-    let mut i = 0;
-    while let Some(&b) = rest.get(i) {
-        match b {
-            b'0'..=b'9' => {
-                let d = b - b'0';
-                if significant < 19 {
-                    if mantissa != 0 || d != 0 {
-                        significant += 1;
-                    }
-                    mantissa = mantissa * 10 + u64::from(d);
-                    if seen_dot {
-                        scale -= 1;
-                    }
-                } else {
-                    // Digits past 19 significant: only the first one
-                    // matters for rounding (the rest is below it).
-                    if round_digit.is_none() {
-                        round_digit = Some(d);
-                    }
-                    if !seen_dot {
-                        scale += 1;
-                    }
-                }
-            }
-            b'.' => seen_dot = true,
-            _ => break,
-        }
-        i += 1;
-    }
-    if matches!(rest.get(i), Some(b'e' | b'E')) {
-        let exp = rest.get(i + 1..).unwrap_or(&[]);
-        let (eneg, edigits) = match exp.first() {
-            Some(b'-') => (true, exp.get(1..).unwrap_or(&[])),
-            Some(b'+') => (false, exp.get(1..).unwrap_or(&[])),
-            _ => (false, exp),
-        };
-        let mut e: i32 = 0;
-        for &b in edigits {
-            // Clamp: anything this large is out of range anyway.
-            e = (e * 10 + i32::from(b - b'0')).min(10_000);
-        }
-        scale += if eneg { -e } else { e };
-    }
-    // micros = mantissa × 10^(scale + 6)
-    let shift = scale + 6;
+    let d = split_decimal(t).ok_or(NumberError::Syntax)?;
+    let mantissa = d.mantissa;
+    // micros = mantissa × 10^(exponent + 6)
+    let shift = d.exponent + 6;
     let micros: u64 = if mantissa == 0 {
         0
     } else if shift >= 0 {
@@ -403,317 +253,13 @@ pub fn parse_time(text: &[u8]) -> Result<Time, NumberError> {
     };
     // With nothing dropped below the microsecond, a 20th significant digit
     // is the next one (with more integer digits it is out of range anyway).
-    let micros = if shift >= 0 && round_digit.is_some_and(|d| d >= 5) {
+    let micros = if shift >= 0 && d.first_dropped.is_some_and(|v| v >= 5) {
         micros.checked_add(1).ok_or(NumberError::OutOfRange)?
     } else {
         micros
     };
     let micros = i64::try_from(micros).map_err(|_| NumberError::OutOfRange)?;
-    Ok(Time::from_micros(if negative { -micros } else { micros }))
-}
-
-/// Decimal digits of `v` (at least one).
-fn digit_count(v: u64) -> usize {
-    let mut n = 1;
-    let mut t = v;
-    while t >= 10_000 {
-        t /= 10_000;
-        n += 4;
-    }
-    while t >= 10 {
-        t /= 10;
-        n += 1;
-    }
-    n
-}
-
-/// 10^n for n ≤ 6 (larger n is clamped).
-fn pow10(n: u8) -> u64 {
-    POW10.get(usize::from(n)).copied().unwrap_or(1_000_000)
-}
-
-/// Digits assembled right to left in a fixed buffer: 40 bytes hold the
-/// 39 digits of `f32::MAX` and a sign, or a u64, a point, 6 decimals and a
-/// sign. A push past the front is dropped (cannot happen with these sizes,
-/// and is never a panic).
-struct Backward {
-    buf: [u8; 48],
-    start: usize,
-}
-
-impl Backward {
-    fn new() -> Self {
-        Backward {
-            buf: [0; 48],
-            start: 48,
-        }
-    }
-
-    #[inline]
-    fn push(&mut self, b: u8) {
-        if let Some(i) = self.start.checked_sub(1) {
-            if let Some(slot) = self.buf.get_mut(i) {
-                *slot = b;
-                self.start = i;
-            }
-        }
-    }
-
-    #[inline]
-    fn digit(&mut self, v: u64) {
-        self.push(b'0' + (v % 10) as u8);
-    }
-
-    /// Two digits of `v < 100`.
-    #[inline]
-    fn pair(&mut self, v: u64) {
-        let [hi, lo] = DIGIT_PAIRS
-            .get((v % 100) as usize)
-            .copied()
-            .unwrap_or([b'0'; 2]);
-        self.push(lo);
-        self.push(hi);
-    }
-
-    /// All digits of `v`, at least one.
-    fn integer(&mut self, mut v: u64) {
-        while v >= 100 {
-            self.pair(v % 100);
-            v /= 100;
-        }
-        if v >= 10 {
-            self.pair(v);
-        } else {
-            self.digit(v);
-        }
-    }
-
-    fn as_slice(&self) -> &[u8] {
-        self.buf.get(self.start..).unwrap_or(&[])
-    }
-}
-
-/// "00", "01", … "99": two digits per division.
-#[allow(clippy::indexing_slicing)] // evaluated at compile time
-const DIGIT_PAIRS: [[u8; 2]; 100] = {
-    let mut t = [[0u8; 2]; 100];
-    let mut i = 0;
-    while i < 100 {
-        t[i] = [b'0' + (i / 10) as u8, b'0' + (i % 10) as u8];
-        i += 1;
-    }
-    t
-};
-
-/// A byte sink with a fixed capacity that never panics: a write that does
-/// not fit sets `overflow` and is dropped. Buffers are sized by the
-/// generated maxima, so in the firmware it never overflows; the flag makes
-/// sure a wrong size is an error, not memory corruption.
-pub struct Writer<'a> {
-    buf: &'a mut [u8],
-    len: usize,
-    overflow: bool,
-}
-
-impl<'a> Writer<'a> {
-    pub fn new(buf: &'a mut [u8]) -> Self {
-        Writer {
-            buf,
-            len: 0,
-            overflow: false,
-        }
-    }
-
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    pub fn overflowed(&self) -> bool {
-        self.overflow
-    }
-
-    /// The bytes written so far.
-    pub fn written(&self) -> &[u8] {
-        self.buf.get(..self.len).unwrap_or(&[])
-    }
-
-    #[inline]
-    pub fn bytes(&mut self, b: &[u8]) {
-        let end = self.len + b.len();
-        match self.buf.get_mut(self.len..end) {
-            // Equal lengths by construction; zipped so no length-mismatch
-            // panic path is left (cargo panic-check).
-            Some(dst) if dst.len() == b.len() => {
-                for (d, s) in dst.iter_mut().zip(b) {
-                    *d = *s;
-                }
-                self.len = end;
-            }
-            _ => self.overflow = true,
-        }
-    }
-
-    #[inline]
-    pub fn byte(&mut self, b: u8) {
-        match self.buf.get_mut(self.len) {
-            Some(dst) => {
-                *dst = b;
-                self.len += 1;
-            }
-            None => self.overflow = true,
-        }
-    }
-
-    /// Decimal digits of `v`.
-    pub fn u64(&mut self, v: u64) {
-        let mut d = Backward::new();
-        d.integer(v);
-        self.bytes(d.as_slice());
-    }
-
-    /// An `f32` with exactly `decimals` decimals, never exponent notation
-    /// (M5), rounded half to even on the exact binary value. Non-finite
-    /// values are written as zero; the return value says so, for counting.
-    ///
-    /// ```
-    /// use rri_firmware::codec::number::Writer;
-    /// let mut buf = [0u8; 32];
-    /// let mut w = Writer::new(&mut buf);
-    /// assert!(w.real(1.21592e-06, 3));
-    /// w.byte(b' ');
-    /// assert!(!w.real(f32::NAN, 3)); // written as zero, reported
-    /// assert_eq!(w.written(), b"0.000 0.000");
-    /// ```
-    ///
-    /// Integer arithmetic only: the f32 is `m × 2^e` with a 24-bit `m`, so
-    /// `m × 10^decimals` fits a `u64` and one shift gives the rounded
-    /// fixed-point value; values of 2^24 and more are integers (`m << e`).
-    pub fn real(&mut self, x: f32, decimals: u8) -> bool {
-        let decimals = decimals.min(MAX_DECIMALS);
-        if !x.is_finite() {
-            self.fixed(false, 0, decimals);
-            return false;
-        }
-        let bits = x.to_bits();
-        let negative = bits >> 31 == 1;
-        let biased = ((bits >> 23) & 0xff) as i32;
-        let frac = u64::from(bits & 0x007f_ffff);
-        let (m, e) = if biased == 0 {
-            (frac, -149)
-        } else {
-            (frac | 0x0080_0000, biased - 150)
-        };
-        if e >= 0 {
-            // 2^24 and above: an integer of up to 39 digits, zero fraction.
-            let mut v = u128::from(m) << e;
-            let mut d = Backward::new();
-            for _ in 0..decimals {
-                d.push(b'0');
-            }
-            if decimals > 0 {
-                d.push(b'.');
-            }
-            while v >= 1 << 64 {
-                d.digit((v % 10) as u64);
-                v /= 10;
-            }
-            d.integer(v as u64);
-            if negative {
-                d.push(b'-');
-            }
-            self.bytes(d.as_slice());
-            return true;
-        }
-        let scaled = m * pow10(decimals);
-        let shift = (-e) as u32;
-        let q = if shift >= 64 {
-            0
-        } else {
-            let q = scaled >> shift;
-            let r = scaled & ((1u64 << shift) - 1);
-            let half = 1u64 << (shift - 1);
-            if r > half || (r == half && q & 1 == 1) {
-                q + 1
-            } else {
-                q
-            }
-        };
-        self.fixed(negative && q != 0, q, decimals);
-        true
-    }
-
-    /// `q / 10^decimals` with exactly `decimals` decimals, written straight
-    /// into the output from its last digit backwards, two digits per
-    /// division (the hot path of every sent real: no temporary, no copy).
-    fn fixed(&mut self, negative: bool, q: u64, decimals: u8) {
-        let frac = decimals.min(MAX_DECIMALS);
-        let p = pow10(frac);
-        let mut int = q / p;
-        let mut f = q % p;
-        let frac = usize::from(frac);
-        let point = usize::from(frac > 0);
-        let total = usize::from(negative) + digit_count(int) + point + frac;
-        let start = self.len;
-        let Some(dst) = self.buf.get_mut(start..start + total) else {
-            self.overflow = true;
-            return;
-        };
-        // `total` is exact, so the iterator ends exactly at the sign; a
-        // miscount would drop digits, never panic.
-        let mut out = dst.iter_mut().rev();
-        macro_rules! put {
-            ($b:expr) => {
-                if let Some(x) = out.next() {
-                    *x = $b;
-                }
-            };
-        }
-        macro_rules! pair {
-            ($v:expr) => {
-                let [hi, lo] = DIGIT_PAIRS.get($v as usize).copied().unwrap_or([b'0'; 2]);
-                put!(lo);
-                put!(hi);
-            };
-        }
-        for _ in 0..frac / 2 {
-            pair!(f % 100);
-            f /= 100;
-        }
-        if frac % 2 == 1 {
-            put!(b'0' + (f % 10) as u8);
-        }
-        if point == 1 {
-            put!(b'.');
-        }
-        while int >= 100 {
-            pair!(int % 100);
-            int /= 100;
-        }
-        if int >= 10 {
-            pair!(int);
-        } else {
-            put!(b'0' + int as u8);
-        }
-        if negative {
-            put!(b'-');
-        }
-        self.len = start + total;
-    }
-
-    /// A time in seconds with exactly `decimals` decimals, rounded half
-    /// away from zero from the exact microseconds.
-    pub fn time(&mut self, t: Time, decimals: u8) {
-        let decimals = decimals.min(MAX_DECIMALS);
-        let micros = t.as_micros();
-        let magnitude = micros.unsigned_abs();
-        let unit = pow10(MAX_DECIMALS - decimals);
-        let q = (magnitude + unit / 2) / unit;
-        self.fixed(micros < 0 && q != 0, q, decimals);
-    }
+    Ok(Time::from_micros(if d.negative { -micros } else { micros }))
 }
 
 #[cfg(test)]
@@ -723,81 +269,6 @@ mod tests {
     extern crate std;
     use std::format;
     use std::string::String;
-
-    fn real(x: f32, d: u8) -> String {
-        let mut buf = [0u8; 64];
-        let mut w = Writer::new(&mut buf);
-        w.real(x, d);
-        String::from_utf8(w.written().to_vec()).unwrap()
-    }
-
-    fn time(micros: i64, d: u8) -> String {
-        let mut buf = [0u8; 64];
-        let mut w = Writer::new(&mut buf);
-        w.time(Time::from_micros(micros), d);
-        String::from_utf8(w.written().to_vec()).unwrap()
-    }
-
-    #[test]
-    fn m5_reals_have_fixed_decimals_and_no_exponent() {
-        assert_eq!(real(232.661, 3), "232.661");
-        assert_eq!(real(1620.293, 3), "1620.293");
-        assert_eq!(real(0.0, 3), "0.000");
-        assert_eq!(real(1.21592e-06, 3), "0.000");
-        assert_eq!(real(-12345.678901, 3), "-12345.679");
-        assert_eq!(real(1.5, 0), "2");
-        assert_eq!(real(2.5, 0), "2");
-        assert_eq!(real(1e20, 3), "100000002004087734272.000");
-        assert_eq!(real(f32::MAX, 3).len(), 39 + 4);
-        assert_eq!(real(f32::MIN, 3).len(), 1 + 39 + 4);
-        assert_eq!(real(-0.0, 3), "0.000");
-        assert_eq!(real(-0.0001, 3), "0.000");
-        assert_eq!(real(f32::from_bits(1), 6), "0.000000");
-    }
-
-    #[test]
-    fn m5_non_finite_is_written_as_zero_and_reported() {
-        let mut buf = [0u8; 16];
-        let mut w = Writer::new(&mut buf);
-        assert!(!w.real(f32::NAN, 3));
-        assert!(!w.real(f32::INFINITY, 2));
-        assert_eq!(w.written(), b"0.0000.00");
-    }
-
-    #[test]
-    fn m5_reals_match_core_fmt_on_many_values() {
-        // core::fmt is the oracle here (host test only): same digits,
-        // except that we never write "-0.000".
-        let mut x: u32 = 0x1234_5678;
-        for _ in 0..200_000 {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            let v = f32::from_bits(x);
-            if !v.is_finite() {
-                continue;
-            }
-            for d in [0u8, 3, 6] {
-                let mut want = format!("{:.*}", usize::from(d), v);
-                if want.starts_with('-') && want.bytes().all(|b| matches!(b, b'-' | b'0' | b'.')) {
-                    want.remove(0);
-                }
-                assert_eq!(real(v, d), want, "{v:e} with {d} decimals");
-            }
-        }
-    }
-
-    #[test]
-    fn m5_times_are_exact() {
-        assert_eq!(time(1_234_000, 3), "1.234");
-        assert_eq!(time(765_315_969, 3), "765.316");
-        assert_eq!(time(765_315_969, 6), "765.315969");
-        assert_eq!(time(86_400_123_000, 3), "86400.123");
-        assert_eq!(time(-1_500, 3), "-0.002");
-        assert_eq!(time(-499, 3), "0.000");
-        assert_eq!(time(i64::MIN, 3), "-9223372036854.776");
-        assert_eq!(time(7, 0), "0");
-    }
 
     #[test]
     fn m5_reals_parse_in_any_decimal_notation() {
@@ -912,14 +383,5 @@ mod tests {
         assert_eq!(parse_u32(b"-1"), Err(NumberError::Syntax));
         assert_eq!(parse_u32(b"1.0"), Err(NumberError::Syntax));
         assert_eq!(parse_u32(b""), Err(NumberError::Syntax));
-    }
-
-    #[test]
-    fn writer_never_overruns() {
-        let mut buf = [0u8; 4];
-        let mut w = Writer::new(&mut buf);
-        w.real(1234.5, 3);
-        assert!(w.overflowed());
-        assert!(w.len() <= 4);
     }
 }

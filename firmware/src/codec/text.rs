@@ -2,7 +2,7 @@
 //! character-reference-decoded on the way in, cut at 80 bytes on a UTF-8
 //! boundary.
 
-use super::number::Writer;
+use super::writer::Writer;
 use crate::value::{RriString, MAX_STRING_LEN};
 
 /// Writes `s` with `& < > " '` escaped (valid in element text and in

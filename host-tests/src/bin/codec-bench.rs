@@ -307,10 +307,17 @@ fn main() -> ExitCode {
                 }
             }
         }
-        if let [o, b, ..] = per[..] {
+        if let [o, b, t, ..] = per[..] {
             println!(
                 "  {:>8.2}x    fewer instructions than the baseline",
                 b as f64 / o.max(1) as f64
+            );
+            // What we add on top of the tokenizer, the figure issue 11
+            // targets (<= 1.45x); printed, not asserted.
+            println!(
+                "  {:>8.2}x    xmlparser alone (ours = tokenizing + {} Ir/message of our own)",
+                o as f64 / t.max(1) as f64,
+                o.saturating_sub(t)
             );
         }
         return ExitCode::SUCCESS;

@@ -1,0 +1,143 @@
+//! Unit tests of [`super`]: exact decimal-to-`f32` conversion against
+//! core's parser, on the hard cases and on random texts.
+
+use super::*;
+use std::format;
+use std::string::String;
+
+fn oracle(text: &str) -> Option<u32> {
+    text.parse::<f32>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .map(|v| v.abs().to_bits())
+}
+
+fn ours(text: &str) -> Option<u32> {
+    parse_magnitude(text.as_bytes()).ok().map(f32::to_bits)
+}
+
+#[test]
+fn m5_exact_on_hard_cases() {
+    for text in [
+        "0",
+        "0.000",
+        "1",
+        "3.4028235e38",
+        "3.4028235677973366e38",  // just below MAX + ulp/2
+        "3.4028235677973367e38",  // just above: infinity
+        "340282356779733661637539395458142568448", // MAX + ulp/2 exactly: ties to inf
+        "1.4e-45",
+        "7.006492321624085354618647916449580656401309709382578858785341419448955413429303e-46", // 2^-150: ties to 0
+        "7.006492321624085354618647916449580656401309709382578858785341419448955413429304e-46",
+        "1.17549435e-38",
+        "16777217",               // 2^24 + 1: tie, to even
+        "16777219",               // tie, to even (up)
+        "16777217.000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000001",
+        "9999999999999999999999999999999999999999",
+        "0.1",
+        "123456789012345678901234567890e-10",
+        "1e-46",
+        "9.99e-47",
+        "1e38",
+        "1e39",
+    ] {
+        assert_eq!(ours(text), oracle(text), "{text}");
+    }
+}
+
+#[test]
+fn m5_exact_on_random_long_texts() {
+    let mut x: u64 = 0x2545_f491_4f6c_dd1d;
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x
+    };
+    for _ in 0..100_000 {
+        let r = next();
+        let digits = 1 + (r % 200) as usize;
+        let mut text = String::new();
+        for i in 0..digits {
+            if i == (r >> 16) as usize % (digits + 1) {
+                text.push('.');
+            }
+            let d = next() % 10;
+            text.push((b'0' + d as u8) as char);
+        }
+        let e = (r >> 32) as i32 % 120 - 60;
+        text.push_str(&format!("e{e}"));
+        assert_eq!(ours(&text), oracle(&text), "{text}");
+    }
+}
+
+/// f32 midpoints written out exactly, and the texts a hair above
+/// them, across the whole range.
+#[test]
+fn m5_exact_on_midpoints() {
+    let mut y: u32 = 7;
+    // Random ones, then the subnormals' and the smallest normals'
+    // edges, where the f32 spacing stops shrinking.
+    let edges = (0..300).chain(0x007f_ff00..0x0080_0100);
+    let random = (0..20_000).map(|_| {
+        y ^= y << 13;
+        y ^= y >> 17;
+        y ^= y << 5;
+        y & 0x7f7f_ffff
+    });
+    for bits in random.chain(edges) {
+        let (m, q) = midpoint(bits, bits + 1);
+        let (digits, e) = exact_decimal(m, q);
+        // One less in the last place, then nines: a hair below it.
+        let mut below = digits.clone().into_bytes();
+        for b in below.iter_mut().rev() {
+            if *b == b'0' {
+                *b = b'9';
+            } else {
+                *b -= 1;
+                break;
+            }
+        }
+        let below = String::from_utf8(below).unwrap();
+        for text in [
+            format!("{digits}e{e}"),
+            format!("{digits}1e{}", e - 1),
+            format!("{digits}0000001e{}", e - 7),
+            format!("{below}9999999e{}", e - 7),
+            format!("{below}9e{}", e - 1),
+        ] {
+            assert_eq!(ours(&text), oracle(&text), "{text}");
+        }
+    }
+}
+
+/// `m × 2^q` as decimal digits and a power of ten (test only).
+fn exact_decimal(m: u64, q: i32) -> (String, i32) {
+    let mut digits: std::vec::Vec<u32> =
+        m.to_string().bytes().map(|b| u32::from(b - b'0')).collect();
+    let (factor, times) = if q >= 0 { (2, q) } else { (5, -q) };
+    for _ in 0..times {
+        let mut carry = 0;
+        for d in digits.iter_mut().rev() {
+            let v = *d * factor + carry;
+            *d = v % 10;
+            carry = v / 10;
+        }
+        while carry > 0 {
+            digits.insert(0, carry % 10);
+            carry /= 10;
+        }
+    }
+    let text = digits.iter().map(|d| char::from(b'0' + *d as u8)).collect();
+    (text, q.min(0))
+}
+
+#[test]
+fn big_never_overflows_within_bounds() {
+    // The largest operands: 120 nines at both magnitude bounds.
+    for e in [MIN_MAGNITUDE - 1, MIN_MAGNITUDE, 0, MAX_MAGNITUDE] {
+        let text = format!("0.{}e{}", "9".repeat(KEPT + 30), e + 1);
+        let got = parse_magnitude(text.as_bytes());
+        assert_eq!(got.ok().map(f32::to_bits), oracle(&text), "{text}");
+    }
+}

@@ -1,0 +1,345 @@
+//! Numbers written with a fixed number of decimals (M5), without
+//! `core::fmt` float formatting (which costs ~25k instructions per message
+//! and ~16 KB of flash): the number-writing methods of [`Writer`].
+//!
+//! Bounded work: at most 40 integer digits plus the decimals.
+
+use super::writer::Writer;
+use crate::value::Time;
+
+/// Most decimals the fixed-point writers support (time is held in µs).
+pub const MAX_DECIMALS: u8 = 6;
+
+const POW10: [u64; 7] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
+
+/// Decimal digits of `v` (at least one).
+fn digit_count(v: u64) -> usize {
+    let mut n = 1;
+    let mut t = v;
+    while t >= 10_000 {
+        t /= 10_000;
+        n += 4;
+    }
+    while t >= 10 {
+        t /= 10;
+        n += 1;
+    }
+    n
+}
+
+/// 10^n for n ≤ 6 (larger n is clamped).
+fn pow10(n: u8) -> u64 {
+    POW10.get(usize::from(n)).copied().unwrap_or(1_000_000)
+}
+
+/// Digits assembled right to left in a fixed buffer: 40 bytes hold the
+/// 39 digits of `f32::MAX` and a sign, or a u64, a point, 6 decimals and a
+/// sign. A push past the front is dropped (cannot happen with these sizes,
+/// and is never a panic).
+struct Backward {
+    buf: [u8; 48],
+    start: usize,
+}
+
+impl Backward {
+    fn new() -> Self {
+        Backward {
+            buf: [0; 48],
+            start: 48,
+        }
+    }
+
+    #[inline]
+    fn push(&mut self, b: u8) {
+        if let Some(i) = self.start.checked_sub(1) {
+            if let Some(slot) = self.buf.get_mut(i) {
+                *slot = b;
+                self.start = i;
+            }
+        }
+    }
+
+    #[inline]
+    fn digit(&mut self, v: u64) {
+        self.push(b'0' + (v % 10) as u8);
+    }
+
+    /// Two digits of `v < 100`.
+    #[inline]
+    fn pair(&mut self, v: u64) {
+        let [hi, lo] = DIGIT_PAIRS
+            .get((v % 100) as usize)
+            .copied()
+            .unwrap_or([b'0'; 2]);
+        self.push(lo);
+        self.push(hi);
+    }
+
+    /// All digits of `v`, at least one.
+    fn integer(&mut self, mut v: u64) {
+        while v >= 100 {
+            self.pair(v % 100);
+            v /= 100;
+        }
+        if v >= 10 {
+            self.pair(v);
+        } else {
+            self.digit(v);
+        }
+    }
+
+    fn as_slice(&self) -> &[u8] {
+        self.buf.get(self.start..).unwrap_or(&[])
+    }
+}
+
+/// "00", "01", … "99": two digits per division.
+#[allow(clippy::indexing_slicing)] // evaluated at compile time
+const DIGIT_PAIRS: [[u8; 2]; 100] = {
+    let mut t = [[0u8; 2]; 100];
+    let mut i = 0;
+    while i < 100 {
+        t[i] = [b'0' + (i / 10) as u8, b'0' + (i % 10) as u8];
+        i += 1;
+    }
+    t
+};
+
+impl Writer<'_> {
+    /// Decimal digits of `v`.
+    pub fn u64(&mut self, v: u64) {
+        let mut d = Backward::new();
+        d.integer(v);
+        self.bytes(d.as_slice());
+    }
+
+    /// An `f32` with exactly `decimals` decimals, never exponent notation
+    /// (M5), rounded half to even on the exact binary value. Non-finite
+    /// values are written as zero; the return value says so, for counting.
+    ///
+    /// ```
+    /// use rri_firmware::codec::writer::Writer;
+    /// let mut buf = [0u8; 32];
+    /// let mut w = Writer::new(&mut buf);
+    /// assert!(w.real(1.21592e-06, 3));
+    /// w.byte(b' ');
+    /// assert!(!w.real(f32::NAN, 3)); // written as zero, reported
+    /// assert_eq!(w.written(), b"0.000 0.000");
+    /// ```
+    ///
+    /// Integer arithmetic only: the f32 is `m × 2^e` with a 24-bit `m`, so
+    /// `m × 10^decimals` fits a `u64` and one shift gives the rounded
+    /// fixed-point value; values of 2^24 and more are integers (`m << e`).
+    pub fn real(&mut self, x: f32, decimals: u8) -> bool {
+        let decimals = decimals.min(MAX_DECIMALS);
+        if !x.is_finite() {
+            self.fixed(false, 0, decimals);
+            return false;
+        }
+        let bits = x.to_bits();
+        let negative = bits >> 31 == 1;
+        let biased = ((bits >> 23) & 0xff) as i32;
+        let frac = u64::from(bits & 0x007f_ffff);
+        let (m, e) = if biased == 0 {
+            (frac, -149)
+        } else {
+            (frac | 0x0080_0000, biased - 150)
+        };
+        if e >= 0 {
+            // 2^24 and above: an integer of up to 39 digits, zero fraction.
+            let mut v = u128::from(m) << e;
+            let mut d = Backward::new();
+            for _ in 0..decimals {
+                d.push(b'0');
+            }
+            if decimals > 0 {
+                d.push(b'.');
+            }
+            while v >= 1 << 64 {
+                d.digit((v % 10) as u64);
+                v /= 10;
+            }
+            d.integer(v as u64);
+            if negative {
+                d.push(b'-');
+            }
+            self.bytes(d.as_slice());
+            return true;
+        }
+        let scaled = m * pow10(decimals);
+        let shift = (-e) as u32;
+        let q = if shift >= 64 {
+            0
+        } else {
+            let q = scaled >> shift;
+            let r = scaled & ((1u64 << shift) - 1);
+            let half = 1u64 << (shift - 1);
+            if r > half || (r == half && q & 1 == 1) {
+                q + 1
+            } else {
+                q
+            }
+        };
+        self.fixed(negative && q != 0, q, decimals);
+        true
+    }
+
+    /// `q / 10^decimals` with exactly `decimals` decimals, written straight
+    /// into the output from its last digit backwards, two digits per
+    /// division (the hot path of every sent real: no temporary, no copy).
+    fn fixed(&mut self, negative: bool, q: u64, decimals: u8) {
+        let frac = decimals.min(MAX_DECIMALS);
+        let p = pow10(frac);
+        let mut int = q / p;
+        let mut f = q % p;
+        let frac = usize::from(frac);
+        let point = usize::from(frac > 0);
+        let total = usize::from(negative) + digit_count(int) + point + frac;
+        let Some(dst) = self.reserve(total) else {
+            return;
+        };
+        // `total` is exact, so the iterator ends exactly at the sign; a
+        // miscount would drop digits, never panic.
+        let mut out = dst.iter_mut().rev();
+        macro_rules! put {
+            ($b:expr) => {
+                if let Some(x) = out.next() {
+                    *x = $b;
+                }
+            };
+        }
+        macro_rules! pair {
+            ($v:expr) => {
+                let [hi, lo] = DIGIT_PAIRS.get($v as usize).copied().unwrap_or([b'0'; 2]);
+                put!(lo);
+                put!(hi);
+            };
+        }
+        for _ in 0..frac / 2 {
+            pair!(f % 100);
+            f /= 100;
+        }
+        if frac % 2 == 1 {
+            put!(b'0' + (f % 10) as u8);
+        }
+        if point == 1 {
+            put!(b'.');
+        }
+        while int >= 100 {
+            pair!(int % 100);
+            int /= 100;
+        }
+        if int >= 10 {
+            pair!(int);
+        } else {
+            put!(b'0' + int as u8);
+        }
+        if negative {
+            put!(b'-');
+        }
+    }
+
+    /// A time in seconds with exactly `decimals` decimals, rounded half
+    /// away from zero from the exact microseconds.
+    pub fn time(&mut self, t: Time, decimals: u8) {
+        let decimals = decimals.min(MAX_DECIMALS);
+        let micros = t.as_micros();
+        let magnitude = micros.unsigned_abs();
+        let unit = pow10(MAX_DECIMALS - decimals);
+        let q = (magnitude + unit / 2) / unit;
+        self.fixed(micros < 0 && q != 0, q, decimals);
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::excessive_precision)] // the robot writes such texts
+mod tests {
+    use super::*;
+    extern crate std;
+    use std::format;
+    use std::string::String;
+
+    fn real(x: f32, d: u8) -> String {
+        let mut buf = [0u8; 64];
+        let mut w = Writer::new(&mut buf);
+        w.real(x, d);
+        String::from_utf8(w.written().to_vec()).unwrap()
+    }
+
+    fn time(micros: i64, d: u8) -> String {
+        let mut buf = [0u8; 64];
+        let mut w = Writer::new(&mut buf);
+        w.time(Time::from_micros(micros), d);
+        String::from_utf8(w.written().to_vec()).unwrap()
+    }
+
+    #[test]
+    fn m5_reals_have_fixed_decimals_and_no_exponent() {
+        assert_eq!(real(232.661, 3), "232.661");
+        assert_eq!(real(1620.293, 3), "1620.293");
+        assert_eq!(real(0.0, 3), "0.000");
+        assert_eq!(real(1.21592e-06, 3), "0.000");
+        assert_eq!(real(-12345.678901, 3), "-12345.679");
+        assert_eq!(real(1.5, 0), "2");
+        assert_eq!(real(2.5, 0), "2");
+        assert_eq!(real(1e20, 3), "100000002004087734272.000");
+        assert_eq!(real(f32::MAX, 3).len(), 39 + 4);
+        assert_eq!(real(f32::MIN, 3).len(), 1 + 39 + 4);
+        assert_eq!(real(-0.0, 3), "0.000");
+        assert_eq!(real(-0.0001, 3), "0.000");
+        assert_eq!(real(f32::from_bits(1), 6), "0.000000");
+    }
+
+    #[test]
+    fn m5_non_finite_is_written_as_zero_and_reported() {
+        let mut buf = [0u8; 16];
+        let mut w = Writer::new(&mut buf);
+        assert!(!w.real(f32::NAN, 3));
+        assert!(!w.real(f32::INFINITY, 2));
+        assert_eq!(w.written(), b"0.0000.00");
+    }
+
+    #[test]
+    fn m5_reals_match_core_fmt_on_many_values() {
+        // core::fmt is the oracle here (host test only): same digits,
+        // except that we never write "-0.000".
+        let mut x: u32 = 0x1234_5678;
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            let v = f32::from_bits(x);
+            if !v.is_finite() {
+                continue;
+            }
+            for d in [0u8, 3, 6] {
+                let mut want = format!("{:.*}", usize::from(d), v);
+                if want.starts_with('-') && want.bytes().all(|b| matches!(b, b'-' | b'0' | b'.')) {
+                    want.remove(0);
+                }
+                assert_eq!(real(v, d), want, "{v:e} with {d} decimals");
+            }
+        }
+    }
+
+    #[test]
+    fn m5_times_are_exact() {
+        assert_eq!(time(1_234_000, 3), "1.234");
+        assert_eq!(time(765_315_969, 3), "765.316");
+        assert_eq!(time(765_315_969, 6), "765.315969");
+        assert_eq!(time(86_400_123_000, 3), "86400.123");
+        assert_eq!(time(-1_500, 3), "-0.002");
+        assert_eq!(time(-499, 3), "0.000");
+        assert_eq!(time(i64::MIN, 3), "-9223372036854.776");
+        assert_eq!(time(7, 0), "0");
+    }
+
+    #[test]
+    fn writer_never_overruns() {
+        let mut buf = [0u8; 4];
+        let mut w = Writer::new(&mut buf);
+        w.real(1234.5, 3);
+        assert!(w.overflowed());
+        assert!(w.len() <= 4);
+    }
+}
