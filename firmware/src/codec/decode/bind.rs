@@ -1,0 +1,313 @@
+//! The binding layer: text and attributes collected for one value slot
+//! become the generated record's typed fields (reals, times, bools,
+//! strings, frames, joints, arrays, enums), each conversion a counted,
+//! typed error on bad input.
+
+use super::error::{bump, err, DecodeError, DecodeErrorKind, Tally};
+use crate::codec::number::{parse_f32, parse_time, trim, NumberError};
+use crate::codec::text::append_decoded;
+use crate::schema::FieldMut;
+use crate::value::{RriString, Time};
+
+/// Where text and attributes currently go.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum Target {
+    /// Nothing: outside any value, or inside a skipped element.
+    None,
+    /// The value slot at this index of `M::FIELDS`.
+    Slot(usize),
+}
+
+/// Text collected for the open value slot.
+pub(super) struct Collected<'a> {
+    /// First non-whitespace piece and its offset.
+    piece: Option<(&'a str, usize)>,
+    /// More than one non-whitespace piece (text split by comments/CDATA).
+    fragmented: bool,
+    /// Any character data at all (for strings, whitespace counts).
+    any: bool,
+    /// Attributes assigned (frame, joints, arrays).
+    pub(super) assigned: usize,
+    /// A string being decoded (strings may arrive in several pieces).
+    string: RriString,
+    string_truncated: bool,
+}
+
+impl<'a> Collected<'a> {
+    pub(super) const fn new() -> Self {
+        Collected {
+            piece: None,
+            fragmented: false,
+            any: false,
+            assigned: 0,
+            string: RriString::new(),
+            string_truncated: false,
+        }
+    }
+}
+
+/// The component index of a frame attribute (M4).
+pub(super) fn frame_component(name: &[u8]) -> Option<usize> {
+    match name {
+        b"X" => Some(0),
+        b"Y" => Some(1),
+        b"Z" => Some(2),
+        b"Rx" => Some(3),
+        b"Ry" => Some(4),
+        b"Rz" => Some(5),
+        _ => None,
+    }
+}
+
+/// `J1`..`J6` → 0..5 (M4).
+pub(super) fn joint_component(name: &[u8]) -> Option<usize> {
+    match name {
+        [b'J', d @ b'1'..=b'6'] => Some(usize::from(d - b'1')),
+        _ => None,
+    }
+}
+
+/// `X1`..`XN` → 0..N-1 (M4); no leading zeros, at most 4 digits (N ≤
+/// 1000, G3).
+pub(super) fn array_component(name: &[u8], len: usize) -> Option<usize> {
+    let digits = name.strip_prefix(b"X")?;
+    if digits.first() == Some(&b'0') || digits.is_empty() || digits.len() > 4 {
+        return None;
+    }
+    let mut n = 0usize;
+    for &b in digits {
+        let d = b.wrapping_sub(b'0');
+        if d > 9 {
+            return None;
+        }
+        n = n * 10 + usize::from(d);
+    }
+    (1..=len).contains(&n).then(|| n - 1)
+}
+
+/// The datagram as text. Robot messages are ASCII; checking that a word at
+/// a time is several times cheaper than full UTF-8 validation, which only
+/// runs when a non-ASCII byte is present.
+#[allow(unsafe_code)]
+pub(super) fn utf8(bytes: &[u8]) -> Result<&str, core::str::Utf8Error> {
+    if bytes.is_ascii() {
+        // SAFETY: every byte is ASCII, and ASCII is valid UTF-8.
+        Ok(unsafe { core::str::from_utf8_unchecked(bytes) })
+    } else {
+        core::str::from_utf8(bytes)
+    }
+}
+
+/// M7: `true/false/1/0` in any case, surrounded by whitespace or not.
+pub fn parse_bool(text: &[u8]) -> Option<bool> {
+    let t = trim(text);
+    if t.eq_ignore_ascii_case(b"true") || t == b"1" {
+        Some(true)
+    } else if t.eq_ignore_ascii_case(b"false") || t == b"0" {
+        Some(false)
+    } else {
+        None
+    }
+}
+
+pub(super) fn real(text: &str, at: usize) -> Result<f32, DecodeError> {
+    parse_f32(text.as_bytes()).map_err(|e| match e {
+        NumberError::Syntax => err(DecodeErrorKind::InvalidNumber, at),
+        NumberError::OutOfRange => err(DecodeErrorKind::NumberOutOfRange, at),
+        NumberError::TooLong => err(DecodeErrorKind::NumberTooLong, at),
+    })
+}
+
+pub(super) fn time(text: &str, at: usize) -> Result<Time, DecodeError> {
+    parse_time(text.as_bytes()).map_err(|_| err(DecodeErrorKind::InvalidTime, at))
+}
+
+pub(super) fn boolean(text: &str, at: usize) -> Result<bool, DecodeError> {
+    parse_bool(text.as_bytes()).ok_or(err(DecodeErrorKind::InvalidBool, at))
+}
+
+/// Decodes a string value (text or attribute) into `out`; returns whether
+/// it was cut at 80 bytes.
+pub(super) fn string(out: &mut RriString, raw: &str, at: usize) -> Result<bool, DecodeError> {
+    out.clear();
+    append_decoded(out, raw).map_err(|b| err(DecodeErrorKind::BadReference, at + b.at))
+}
+
+/// Assigns one attribute of a multi-value slot. `Ok(false)`: the slot has
+/// no such attribute (an unknown attribute).
+pub(super) fn set_component(
+    field: FieldMut<'_>,
+    name: &[u8],
+    value: &str,
+    at: usize,
+    tally: &mut Tally,
+) -> Result<bool, DecodeError> {
+    match field {
+        FieldMut::Frame(f) => {
+            let Some(i) = frame_component(name) else {
+                return Ok(false);
+            };
+            let v = real(value, at)?;
+            match i {
+                0 => f.x = v,
+                1 => f.y = v,
+                2 => f.z = v,
+                3 => f.rx = v,
+                4 => f.ry = v,
+                _ => f.rz = v,
+            }
+        }
+        FieldMut::Joints(j) => match joint_component(name).and_then(|i| j.get_mut(i)) {
+            Some(slot) => *slot = real(value, at)?,
+            None => return Ok(false),
+        },
+        FieldMut::Reals(a) => return set_element(a, name, || real(value, at)),
+        FieldMut::Bools(a) => return set_element(a, name, || boolean(value, at)),
+        FieldMut::Times(a) => return set_element(a, name, || time(value, at)),
+        FieldMut::Strs(a) => {
+            return set_element(a, name, || {
+                let mut s = RriString::new();
+                if string(&mut s, value, at)? {
+                    bump(&mut tally.truncated_strings);
+                }
+                Ok(s)
+            })
+        }
+        _ => return Ok(false),
+    }
+    Ok(true)
+}
+
+/// Sets array element `X<i>` (M4) to what `parse` makes of the value;
+/// `Ok(false)` when the array has no such element.
+pub(super) fn set_element<T>(
+    array: &mut [T],
+    name: &[u8],
+    parse: impl FnOnce() -> Result<T, DecodeError>,
+) -> Result<bool, DecodeError> {
+    let len = array.len();
+    match array_component(name, len).and_then(|i| array.get_mut(i)) {
+        Some(slot) => {
+            *slot = parse()?;
+            Ok(true)
+        }
+        None => Ok(false),
+    }
+}
+
+/// Number of attributes a multi-value slot has, `None` for text values.
+pub(super) fn components(field: &FieldMut<'_>) -> Option<usize> {
+    match field {
+        FieldMut::Frame(_) | FieldMut::Joints(_) => Some(6),
+        FieldMut::Bools(a) => Some(a.len()),
+        FieldMut::Reals(a) => Some(a.len()),
+        FieldMut::Times(a) => Some(a.len()),
+        FieldMut::Strs(a) => Some(a.len()),
+        _ => None,
+    }
+}
+
+/// Completes a value slot at its end tag.
+pub(super) fn finish_slot(
+    field: FieldMut<'_>,
+    c: &mut Collected<'_>,
+    tally: &mut Tally,
+) -> Result<(), DecodeError> {
+    if let Some(n) = components(&field) {
+        if c.piece.is_some() {
+            // Text where attributes were expected: the real IRC5's
+            // `<AppData>0</AppData>`.
+            bump(&mut tally.shape_mismatches);
+        } else if c.assigned == 0 {
+            bump(&mut tally.shape_mismatches);
+        } else if c.assigned < n {
+            tally.missing_values = tally
+                .missing_values
+                .saturating_add(u16::try_from(n - c.assigned).unwrap_or(u16::MAX));
+        }
+        return Ok(());
+    }
+    if let FieldMut::Str(s) = field {
+        if c.string_truncated {
+            bump(&mut tally.truncated_strings);
+        }
+        *s = core::mem::take(&mut c.string);
+        return Ok(());
+    }
+    let Some((text, at)) = c.piece else {
+        // `<Ts_act/>` or `<Ts_act> </Ts_act>`: no value.
+        bump(&mut tally.shape_mismatches);
+        return Ok(());
+    };
+    if c.fragmented {
+        return Err(err(
+            match field {
+                FieldMut::Real(_) => DecodeErrorKind::InvalidNumber,
+                FieldMut::Time(_) => DecodeErrorKind::InvalidTime,
+                FieldMut::Bool(_) => DecodeErrorKind::InvalidBool,
+                _ => DecodeErrorKind::UnknownEnumMember,
+            },
+            at,
+        ));
+    }
+    match field {
+        FieldMut::Real(v) => *v = real(text, at)?,
+        FieldMut::Time(v) => *v = time(text, at)?,
+        FieldMut::Bool(v) => *v = boolean(text, at)?,
+        FieldMut::Enum(e) => {
+            // An alias may hold `&` or `<` (escaped on the wire).
+            let mut decoded = RriString::new();
+            let wire = if text.contains('&') {
+                append_decoded(&mut decoded, text)
+                    .map_err(|b| err(DecodeErrorKind::BadReference, at + b.at))?;
+                decoded.as_bytes()
+            } else {
+                text.as_bytes()
+            };
+            let known = e.set_from_wire(trim(wire));
+            if !known {
+                return Err(err(DecodeErrorKind::UnknownEnumMember, at));
+            }
+        }
+        _ => {}
+    }
+    Ok(())
+}
+
+/// Adds a piece of character data to the open slot.
+pub(super) fn collect<'a>(
+    field: Option<FieldMut<'_>>,
+    c: &mut Collected<'a>,
+    raw: &'a str,
+    at: usize,
+    cdata: bool,
+) -> Result<(), DecodeError> {
+    c.any = true;
+    if let Some(FieldMut::Str(_)) = field {
+        let cut = if cdata {
+            // CDATA is literal: no references to decode.
+            let room = crate::value::MAX_STRING_LEN - c.string.len();
+            let mut end = raw.len().min(room);
+            while !raw.is_char_boundary(end) {
+                end -= 1;
+            }
+            let _ = c.string.push_str(raw.get(..end).unwrap_or(""));
+            end < raw.len()
+        } else {
+            append_decoded(&mut c.string, raw)
+                .map_err(|b| err(DecodeErrorKind::BadReference, at + b.at))?
+        };
+        c.string_truncated |= cut;
+        return Ok(());
+    }
+    let t = raw.trim_matches(|ch| matches!(ch, ' ' | '\t' | '\r' | '\n'));
+    if !t.is_empty() {
+        if c.piece.is_some() {
+            c.fragmented = true;
+        } else {
+            let lead = raw.len() - raw.trim_start_matches([' ', '\t', '\r', '\n']).len();
+            c.piece = Some((t, at + lead));
+        }
+    }
+    Ok(())
+}
