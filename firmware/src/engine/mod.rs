@@ -10,12 +10,15 @@
 //! device clock) → back to the transport. Every property the controller
 //! sends is answered the same way (M11).
 
+mod config;
 mod ids;
 mod peer;
+mod periodic;
 mod state;
 mod stats;
 mod time;
 
+pub use config::{Config, Periodic};
 pub use ids::{ChannelIds, IdEvent, IdTracker};
 pub use peer::{Admit, Endpoint, PeerChange, PeerFilter, Pinned};
 pub use state::{ErrorCode, SensorState};
@@ -23,44 +26,8 @@ pub use stats::{DropReason, Histogram, Stats};
 pub use time::{Clock, Instant};
 
 use crate::properties::{DeviceSet, RobotSet, MAX_PROPERTIES};
-use crate::schema::Format;
 use crate::value::Time;
 use stats::{add, bump};
-
-/// Build-time settings of the engine (generated as `layout::ENGINE_CONFIG`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Config {
-    /// S1 `TimeOut`, also how long a peer must be silent before another
-    /// address may take over.
-    pub timeout_ms: u32,
-    /// S1 `MaxLost`: a gap of more lost ids than this is a communication
-    /// error.
-    pub max_lost: u32,
-    /// S1 `DryRun`: neither `TimeOut` nor `MaxLost` is supervised.
-    pub dry_run: bool,
-    /// `RRI_CONTROLLER`: only this address is ever answered.
-    pub controller: Option<Pinned>,
-    /// `RRI_REPLY`: the device property every robot message is answered
-    /// with (its index among the device's properties).
-    pub reply: usize,
-    /// `RRI_SEND_PERIOD_MS`: the reply property sent unprompted, for
-    /// one-way streams (0 = off).
-    pub send_period_ms: u32,
-    /// `RRI_PERIODIC`: device properties sent on their own schedules (for
-    /// `SiGetCyclic` subscriptions of other data); at most
-    /// [`MAX_PROPERTIES`] entries are served.
-    pub periodic: &'static [Periodic],
-    pub format: Format,
-}
-
-/// A device property sent every `period_ms` (a multiple of 4 ms) once a
-/// controller is known, Id from the device's own sequence.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Periodic {
-    /// Index among the device's properties.
-    pub property: usize,
-    pub period_ms: u32,
-}
 
 /// What the application sees each cycle besides the data.
 #[derive(Clone, Copy, Debug)]
@@ -415,104 +382,6 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
             self.set_state(SensorState::Error, Some(ErrorCode::Communication));
         } else {
             self.set_state(SensorState::Operating, None);
-        }
-    }
-
-    /// Time-driven work, to be called at least every few milliseconds:
-    /// the `TimeOut` supervision (S1/S2) and the periodic sends (the reply
-    /// property for one-way streams, `periodic` properties). Returns a
-    /// message to send, if one is due; when several are due at once, the
-    /// others go out on the next calls.
-    pub fn poll<A: Application<R, D>, C: Clock>(
-        &mut self,
-        app: &mut A,
-        clock: &C,
-        out: &mut [u8],
-    ) -> Option<(Endpoint, usize)> {
-        let now = clock.now();
-        let timeout_us = u64::from(self.config.timeout_ms) * 1000;
-        let silent = self
-            .last_rx
-            .is_some_and(|t| now.micros_since(t) > timeout_us);
-        if !self.config.dry_run && self.state == SensorState::Operating && silent {
-            bump(&mut self.stats.timeouts);
-            self.set_state(SensorState::Error, Some(ErrorCode::Communication));
-        }
-        self.periodic(app, clock, now, out)
-    }
-
-    /// Schedule `slot` (device property `property` every `period_ms`, 0 =
-    /// off): its due time, set to `now` the first time it is looked at;
-    /// `best` or this schedule, whichever is due and more overdue, as
-    /// (slot, property, period µs, due).
-    fn due(
-        &mut self,
-        slot: usize,
-        property: usize,
-        period_ms: u32,
-        now: Instant,
-        best: Option<(usize, usize, u64, Instant)>,
-    ) -> Option<(usize, usize, u64, Instant)> {
-        let next = match self.next_send.get_mut(slot) {
-            Some(next) if period_ms > 0 => next,
-            _ => return best,
-        };
-        let due = *next.get_or_insert(now);
-        if due <= now && best.is_none_or(|b| due < b.3) {
-            Some((slot, property, u64::from(period_ms) * 1000, due))
-        } else {
-            best
-        }
-    }
-
-    fn periodic<A: Application<R, D>, C: Clock>(
-        &mut self,
-        app: &mut A,
-        clock: &C,
-        now: Instant,
-        out: &mut [u8],
-    ) -> Option<(Endpoint, usize)> {
-        if matches!(self.state, SensorState::Undefined | SensorState::Closed) {
-            return None;
-        }
-        let to = self.peers.destination()?;
-        // The most overdue schedule goes first, so one that is always due
-        // cannot starve the others. With one device property there is
-        // nothing but the reply to send (a compile-time constant:
-        // single-property firmware carries no table walk).
-        let config = self.config;
-        let mut chosen = self.due(0, config.reply, config.send_period_ms, now, None);
-        if D::WIRE_NAMES.len() > 1 {
-            for (k, p) in config.periodic.iter().take(MAX_PROPERTIES).enumerate() {
-                chosen = self.due(k + 1, p.property, p.period_ms, now, chosen);
-            }
-        }
-        let (slot, property, period_us, due) = chosen?;
-        // The next slot; after a stall, resume from now instead of bursting.
-        let following = due.0.saturating_add(period_us);
-        if let Some(next) = self.next_send.get_mut(slot) {
-            *next = Some(Instant(if following <= now.0 {
-                now.0.saturating_add(period_us)
-            } else {
-                following
-            }));
-        }
-        self.own_id = self.own_id.wrapping_add(1);
-        let send = Send {
-            property,
-            id: self.own_id,
-            arrived: None,
-        };
-        match self.respond(app, clock, send, out) {
-            Ok(len) => {
-                bump(&mut self.stats.sent);
-                bump(&mut self.stats.periodic_sent);
-                Some((to, len))
-            }
-            Err(reason) => {
-                self.stats.count_drop(reason);
-                None
-            }
         }
     }
 }
