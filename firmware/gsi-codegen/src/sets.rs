@@ -5,7 +5,8 @@
 //! (`RRI_REPLY`, `RRI_PERIODIC`).
 
 use super::emit::{self, Emitter};
-use super::{default_expr, rust_type, Idents};
+use crate::resolve::Idents;
+use crate::types::{default_expr, rust_type};
 use gsi_config::Device;
 
 /// Most properties per direction: the firmware's
@@ -219,7 +220,7 @@ fn emit_struct(e: &mut Emitter, d: &Device, id: &Idents, name: &str, doc: &str, 
             (field_name(d, i), default_expr(id, p.ty, p.size))
         })
         .collect();
-    super::emit_defaults(e, name, "Every value", &defaults);
+    crate::items::emit_defaults(e, name, "Every value", &defaults);
 }
 
 fn emit_robot_set(e: &mut Emitter, d: &Device, id: &Idents, props: &[usize]) {

@@ -1,0 +1,211 @@
+//! Emission of the layout's constants: network, channel, supervision and
+//! number settings, the array attribute openers, and the totals (buffer
+//! sizes, the engine configuration) every buffer of the firmware is sized by.
+
+use crate::emit::{self, str_lit, Emitter};
+use crate::resolve::Idents;
+use crate::sets;
+use crate::{sizes, Options};
+use gsi_config::Device;
+
+pub(crate) fn emit_settings(e: &mut Emitter, d: &Device, f: sizes::Format, opts: &Options) {
+    e.doc("Device name (Description.xml `<Name>`, Settings.xml client).");
+    e.line(format!(
+        "pub const DEVICE_NAME: &str = {};",
+        str_lit(&d.name)
+    ));
+    e.doc("Device type (Description.xml `<Type>`, free text).");
+    e.line(format!(
+        "pub const DEVICE_TYPE: &str = {};",
+        str_lit(&d.device_type)
+    ));
+    e.doc("Device class (Description.xml `<Class>`, free text).");
+    e.line(format!(
+        "pub const DEVICE_CLASS: &str = {};",
+        str_lit(&d.class)
+    ));
+    e.doc("The device's own IP address or host name (`<Network Address>`).");
+    e.line(format!(
+        "pub const NETWORK_ADDRESS: &str = {};",
+        str_lit(&d.network.address)
+    ));
+    e.doc("[`NETWORK_ADDRESS`] as IPv4 octets, `None` when it is a host name.");
+    match ipv4(&d.network.address) {
+        Some([a, b, c, dd]) => e.line(format!(
+            "pub const NETWORK_IPV4: Option<[u8; 4]> = Some([{a}, {b}, {c}, {dd}]);"
+        )),
+        None => e.line("pub const NETWORK_IPV4: Option<[u8; 4]> = None;"),
+    }
+    e.doc("The controller's physical port the device is cabled to (`<Network Port>`).");
+    e.line(format!(
+        "pub const CONTROLLER_PORT: ControllerPort = ControllerPort::{};",
+        d.network.port.as_str()
+    ));
+    e.doc("Transport of the cyclic channel (`<Channel Protocol>`).");
+    e.line(format!(
+        "pub const CHANNEL_PROTOCOL: ChannelProtocol = ChannelProtocol::{};",
+        d.channel.protocol.as_str()
+    ));
+    e.doc("Port the device listens on (`<Channel Port>`).");
+    e.line(format!("pub const CHANNEL_PORT: u16 = {};", d.channel.port));
+    e.doc("S1: the controller's answer timeout in milliseconds (`<TimeOut>`).");
+    e.line(format!(
+        "pub const TIMEOUT_MS: u32 = {};",
+        d.supervision.timeout_ms
+    ));
+    e.doc("S1: most unanswered messages in a row the controller tolerates (`<MaxLost>`).");
+    e.line(format!(
+        "pub const MAX_LOST: u32 = {};",
+        d.supervision.max_lost
+    ));
+    e.doc("S1: `true` = one-way streams, TimeOut and MaxLost are not supervised (`<DryRun>`).");
+    e.line(format!(
+        "pub const DRY_RUN: bool = {};",
+        d.supervision.dry_run
+    ));
+    e.doc("M5: decimals of reals in sent messages (`RRI_REAL_DECIMALS`).");
+    e.line(format!(
+        "pub const REAL_DECIMALS: u8 = {};",
+        f.real_decimals
+    ));
+    e.doc("M5: decimals of times in sent messages (`RRI_TIME_DECIMALS`).");
+    e.line(format!(
+        "pub const TIME_DECIMALS: u8 = {};",
+        f.time_decimals
+    ));
+    e.doc("M5: how sent messages write numbers ([`REAL_DECIMALS`], [`TIME_DECIMALS`]).");
+    e.open("pub const FORMAT: Format = Format");
+    e.line("real_decimals: REAL_DECIMALS,");
+    e.line("time_decimals: TIME_DECIMALS,");
+    e.close(";");
+    e.doc("`RRI_CONTROLLER`: the only controller answered, when pinned.");
+    match opts.controller {
+        None => e.line("pub const CONTROLLER: Option<Pinned> = None;"),
+        Some(([a, b, c, dd], port)) => {
+            let port = match port {
+                Some(p) => format!("Some({p})"),
+                None => "None".to_string(),
+            };
+            e.open("pub const CONTROLLER: Option<Pinned> = Some(Pinned");
+            e.line(format!("ip: [{a}, {b}, {c}, {dd}],"));
+            e.line(format!("port: {port},"));
+            e.close(");");
+        }
+    }
+    e.doc("`RRI_SEND_PERIOD_MS`: periodic sends for one-way streams (0 = off).");
+    e.line(format!(
+        "pub const SEND_PERIOD_MS: u32 = {};",
+        opts.send_period_ms
+    ));
+    e.doc("The cycle engine's settings for this device.");
+    e.open("pub const ENGINE_CONFIG: EngineConfig = EngineConfig");
+    e.line("timeout_ms: TIMEOUT_MS,");
+    e.line("max_lost: MAX_LOST,");
+    e.line("dry_run: DRY_RUN,");
+    e.line("controller: CONTROLLER,");
+    if d.sent().next().is_some() {
+        e.line("reply: REPLY.index(),");
+    } else {
+        e.line("reply: 0,");
+    }
+    e.line("send_period_ms: SEND_PERIOD_MS,");
+    e.line("periodic: &PERIODIC,");
+    e.line("format: FORMAT,");
+    e.close(";");
+}
+
+/// Parses dotted-quad IPv4 text.
+pub(crate) fn ipv4(address: &str) -> Option<[u8; 4]> {
+    let parts: Vec<u8> = address
+        .split('.')
+        .map(|p| p.parse::<u8>())
+        .collect::<Result<_, _>>()
+        .ok()?;
+    parts.try_into().ok()
+}
+
+/// The ` X<i>="` attribute openers of arrays (M4) up to the longest array
+/// of the layout, so the encoder copies them instead of formatting indices.
+pub(crate) fn emit_array_attrs(e: &mut Emitter, d: &Device) {
+    let sizes = d
+        .records
+        .iter()
+        .flat_map(|r| r.fields.iter().map(|f| f.size));
+    let longest = sizes
+        .chain(d.properties.iter().map(|p| p.size))
+        .flatten()
+        .max()
+        .unwrap_or(0);
+    e.doc("Attribute openers of array elements, ` X1=\"` … (M4), precomputed up to the");
+    e.doc("longest array of this layout.");
+    e.line("#[rustfmt::skip]");
+    if longest == 0 {
+        e.line("pub const ARRAY_ATTRS: [&[u8]; 0] = [];");
+        return;
+    }
+    e.line(format!("pub const ARRAY_ATTRS: [&[u8]; {longest}] = ["));
+    for i in 1..=longest {
+        e.line(format!("    {},", emit::bytes_lit(&format!(" X{i}=\""))));
+    }
+    e.line("];");
+}
+
+pub(crate) fn emit_totals(
+    e: &mut Emitter,
+    d: &Device,
+    id: &Idents,
+    sizes: &[(usize, usize)],
+    opts: &Options,
+) {
+    let received: Vec<usize> = (0..d.properties.len())
+        .filter(|&i| d.properties[i].flag.robot_sends())
+        .collect();
+    let sent: Vec<usize> = (0..d.properties.len())
+        .filter(|&i| d.properties[i].flag.device_sends())
+        .collect();
+    let list = |idx: &[usize]| -> Vec<String> {
+        idx.iter()
+            .map(|&i| str_lit(d.properties[i].wire()))
+            .collect()
+    };
+    e.doc("Root element names of the messages the controller sends to the device.");
+    e.array(
+        &format!("pub const RECEIVED: [&str; {}] = ", received.len()),
+        &list(&received),
+    );
+    e.doc("Root element names of the messages the device sends to the controller.");
+    e.array(
+        &format!("pub const SENT: [&str; {}] = ", sent.len()),
+        &list(&sent),
+    );
+    let max_of = |idx: &[usize], pick: fn(&(usize, usize)) -> usize| {
+        idx.iter().map(|&i| pick(&sizes[i])).max().unwrap_or(0)
+    };
+    if let Some(&rx) = received.first() {
+        e.doc("The first property the controller sends (the codec bench's message).");
+        e.line(format!("pub type RobotMessage = {};", id.messages[rx]));
+    }
+    if let Some(&tx) = sent.get(opts.reply) {
+        e.doc("The message every robot message is answered with (`RRI_REPLY`).");
+        e.line(format!("pub type ReplyMessage = {};", id.messages[tx]));
+    }
+    if !received.is_empty() && !sent.is_empty() {
+        e.doc("The cycle engine for this device.");
+        e.line(format!(
+            "pub type DeviceEngine = {}::engine::Engine<RobotProperties, DeviceProperties>;",
+            opts.crate_path
+        ));
+    }
+    e.doc("Size of the receive buffer: the longest message the controller may send.");
+    e.doc("A longer datagram is rejected before it is parsed.");
+    e.line(format!(
+        "pub const MAX_RECEIVE_LEN: usize = {};",
+        max_of(&received, |s| s.1)
+    ));
+    e.doc("Size of the send buffer: the longest message the device can encode.");
+    e.line(format!(
+        "pub const MAX_SEND_LEN: usize = {};",
+        max_of(&sent, |s| s.0)
+    ));
+    sets::emit_sets(e, d, id, &received, &sent, opts.reply, &opts.periodic);
+}
