@@ -1,0 +1,440 @@
+//! One run in progress: the controller's supervision (S1), the messages
+//! waiting for their replies, the checks of every reply (M8 and the
+//! layout), and the log of state transitions.
+
+use crate::link::{Event, Link};
+use crate::pcap::Packet;
+use crate::report::{Cycle, Latency, PropertyFigures, Summary};
+use crate::{wire, RobotOptions};
+use gsi_config::{Device, Property};
+use std::collections::HashMap;
+use std::io::{ErrorKind, Write};
+use std::net::SocketAddr;
+use std::time::{Duration, Instant};
+
+/// The controller's supervision (S1) and state as it would show in RAPID.
+pub(crate) struct Supervision {
+    pub(crate) dry_run: bool,
+    pub(crate) timeout: Duration,
+    pub(crate) max_lost: u32,
+    pub(crate) in_row: u32,
+    /// Of the unanswered run: replies that came with a wrong Id or late,
+    /// so a trip names the cause.
+    pub(crate) wrong_in_row: u32,
+    pub(crate) late_in_row: u32,
+    pub(crate) tripped: Option<String>,
+    pub(crate) operating: bool,
+    pub(crate) last_answer: Option<Instant>,
+}
+
+/// A message waiting for its reply.
+pub(crate) struct Waiting {
+    pub(crate) index: usize,
+    pub(crate) sent: Instant,
+    /// Replies still expected (2 for a duplicated message).
+    pub(crate) expected: u8,
+    pub(crate) answered: bool,
+}
+
+pub(crate) struct Sim<'a> {
+    pub(crate) opts: &'a RobotOptions,
+    pub(crate) device: &'a Device,
+    pub(crate) reply_prop: &'a Property,
+    /// Replies and periodic messages by device property name.
+    pub(crate) received: HashMap<String, u64>,
+    pub(crate) link: Link,
+    pub(crate) start: Instant,
+    pub(crate) cycles: Vec<Cycle>,
+    pub(crate) waiting: HashMap<u32, Waiting>,
+    pub(crate) sup: Supervision,
+    pub(crate) s: Summary,
+    pub(crate) packets: Vec<Packet>,
+    pub(crate) log: &'a mut dyn Write,
+    pub(crate) bar: indicatif::ProgressBar,
+}
+
+impl<'a> Sim<'a> {
+    /// A run about to start: nothing sent, supervision as the device's
+    /// configuration says (S1), the progress bar if asked for.
+    pub(crate) fn new(
+        opts: &'a RobotOptions,
+        device: &'a Device,
+        reply_prop: &'a Property,
+        link: Link,
+        tick_ms: u32,
+        log: &'a mut dyn Write,
+    ) -> Self {
+        let bar = if opts.progress {
+            let bar = indicatif::ProgressBar::new(opts.cycles);
+            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                "{elapsed_precise} [{bar:32}] {pos}/{len} cycles {msg}",
+            ) {
+                bar.set_style(style.progress_chars("=> "));
+            }
+            bar
+        } else {
+            indicatif::ProgressBar::hidden()
+        };
+        Sim {
+            opts,
+            device,
+            reply_prop,
+            received: HashMap::new(),
+            link,
+            start: Instant::now(),
+            cycles: Vec::with_capacity(opts.cycles as usize),
+            waiting: HashMap::new(),
+            sup: Supervision {
+                dry_run: device.supervision.dry_run,
+                timeout: Duration::from_millis(u64::from(device.supervision.timeout_ms)),
+                max_lost: device.supervision.max_lost,
+                in_row: 0,
+                wrong_in_row: 0,
+                late_in_row: 0,
+                tripped: None,
+                operating: false,
+                last_answer: None,
+            },
+            s: Summary {
+                device: device.name.clone(),
+                target: opts.to.to_string(),
+                transport: if opts.tcp { "TCP" } else { "UDP" }.into(),
+                rate_ms: tick_ms,
+                paced: opts.pacing,
+                cycles: opts.cycles,
+                ..Summary::default()
+            },
+            packets: Vec::new(),
+            log,
+            bar,
+        }
+    }
+
+    /// S1 at send time: were the last cycle's messages answered within it?
+    /// An answered one ends a run of unanswered ones; more than `MaxLost`
+    /// in a row trips supervision, naming the cause.
+    pub(crate) fn judge_previous(&mut self, previous: &mut Vec<u32>) {
+        for prev in previous.drain(..) {
+            if self.waiting.get(&prev).is_none_or(|w| w.answered) {
+                self.sup.in_row = 0;
+                self.sup.wrong_in_row = 0;
+                self.sup.late_in_row = 0;
+            } else {
+                self.sup.in_row += 1;
+            }
+        }
+        if self.sup.in_row > self.sup.max_lost {
+            let n = self.sup.max_lost;
+            let cause = if self.sup.wrong_in_row > 0 {
+                format!("{} replies carried a wrong Id (M8)", self.sup.wrong_in_row)
+            } else if self.sup.late_in_row > 0 {
+                format!("{} replies came later than one cycle", self.sup.late_in_row)
+            } else {
+                "no reply at all".to_string()
+            };
+            self.trip(format!(
+                "more than MaxLost = {n} messages in a row unanswered: {cause}"
+            ));
+        }
+    }
+
+    /// The device's new log lines and the progress bar after cycle `c`.
+    pub(crate) fn show_progress(&mut self, c: u64) {
+        self.device_lines();
+        let elapsed = self.start.elapsed().as_secs_f64();
+        // A rate over less than a second is noise (the first reading would
+        // be thousands of messages per second).
+        let rate = if elapsed >= 1.0 {
+            format!("{:.0} msg/s, ", self.s.sent as f64 / elapsed)
+        } else {
+            String::new()
+        };
+        // Message first: one redraw shows both with the same counts.
+        self.bar.set_message(format!(
+            "{rate}answered {}, late {}, lost {}",
+            self.s.answered,
+            self.s.late,
+            self.unanswered(Instant::now())
+        ));
+        self.bar.set_position(c + 1);
+    }
+
+    /// Waits (one tick, at least 200 ms) for the replies still due.
+    pub(crate) fn collect_last(&mut self, tick: Duration) {
+        let drain = Instant::now() + tick.max(Duration::from_millis(200));
+        while !self.waiting.values().all(|w| w.answered) && Instant::now() < drain {
+            self.pump(drain.min(Instant::now() + tick), None);
+        }
+        self.bar.finish_and_clear();
+        self.device_lines();
+    }
+
+    /// The run's summary (lost, latency, supervision, per property), its
+    /// per-message records and its captured packets.
+    pub(crate) fn finish(self, sends: &[(&Property, u32)]) -> (Summary, Vec<Cycle>, Vec<Packet>) {
+        let mut s = self.s;
+        let cycles = self.cycles;
+        s.lost = cycles
+            .iter()
+            .filter(|c| !c.dropped_by_fault && c.reply_us.is_none())
+            .count() as u64;
+        s.latency_us = Latency::of(cycles.iter().filter_map(Cycle::latency_us).collect());
+        s.supervision_tripped = self.sup.tripped;
+        s.properties = sends
+            .iter()
+            .enumerate()
+            .map(|(which, (p, ms))| {
+                let mine = || cycles.iter().filter(move |c| c.property == which);
+                PropertyFigures {
+                    name: p.name.clone(),
+                    direction: "sent".into(),
+                    period_ms: Some(*ms),
+                    messages: mine().filter(|c| !c.dropped_by_fault).count() as u64,
+                    answered: mine().filter(|c| c.reply_us.is_some()).count() as u64,
+                    lost: mine()
+                        .filter(|c| !c.dropped_by_fault && c.reply_us.is_none())
+                        .count() as u64,
+                }
+            })
+            .collect();
+        for p in self.device.sent() {
+            if let Some(&n) = self.received.get(&p.name) {
+                s.properties.push(PropertyFigures {
+                    name: p.name.clone(),
+                    direction: if p.name == self.reply_prop.name {
+                        "reply"
+                    } else {
+                        "periodic"
+                    }
+                    .into(),
+                    period_ms: None,
+                    messages: n,
+                    answered: 0,
+                    lost: 0,
+                });
+            }
+        }
+        s.elapsed_s = self.start.elapsed().as_secs_f64();
+        (s, cycles, self.packets)
+    }
+}
+
+impl Sim<'_> {
+    pub(crate) fn us(&self, t: Instant) -> u64 {
+        t.duration_since(self.start).as_micros() as u64
+    }
+
+    pub(crate) fn transition(&mut self, what: &str) {
+        let t = self.start.elapsed().as_secs_f64();
+        let log = &mut self.log;
+        // Around the live progress bar, not through it.
+        self.bar.suspend(|| {
+            let _ = writeln!(log, "[{t:9.3}s] controller: {what}");
+        });
+    }
+
+    /// Prints what the device logged since the last call.
+    pub(crate) fn device_lines(&mut self) {
+        let Some(shared) = &self.opts.device_log else {
+            return;
+        };
+        let lines: Vec<String> = match shared.lock() {
+            Ok(mut l) => l.drain(..).collect(),
+            Err(_) => return,
+        };
+        let log = &mut self.log;
+        self.bar.suspend(|| {
+            for line in &lines {
+                let _ = writeln!(log, "device: {line}");
+            }
+        });
+    }
+
+    /// Messages older than one cycle still without an answer.
+    pub(crate) fn unanswered(&self, now: Instant) -> usize {
+        let cycle = Duration::from_millis(u64::from(self.s.rate_ms));
+        self.waiting
+            .values()
+            .filter(|w| !w.answered && now.duration_since(w.sent) > cycle)
+            .count()
+    }
+
+    pub(crate) fn trip(&mut self, reason: String) {
+        if self.sup.dry_run || self.sup.tripped.is_some() {
+            return;
+        }
+        self.transition(&format!("ERROR 112602 ({reason})"));
+        self.sup.tripped = Some(reason);
+        self.sup.operating = false;
+    }
+
+    pub(crate) fn send(&mut self, bytes: &[u8], second: bool) -> Result<(), String> {
+        let now = Instant::now();
+        let (from, r) = if let Some((main, s2)) = &self.link.udp {
+            let sock = match (second, s2) {
+                (true, Some(s)) => s,
+                _ => main,
+            };
+            (
+                sock.local_addr().ok(),
+                sock.send_to(bytes, self.opts.to).map(|_| ()),
+            )
+        } else if let Some(stream) = &mut self.link.tcp {
+            if self.link.closed {
+                return Ok(());
+            }
+            (stream.local_addr().ok(), stream.write_all(bytes))
+        } else {
+            return Ok(());
+        };
+        if let Err(e) = r {
+            if !matches!(
+                e.kind(),
+                ErrorKind::ConnectionRefused
+                    | ErrorKind::WouldBlock
+                    | ErrorKind::BrokenPipe
+                    | ErrorKind::ConnectionReset
+            ) {
+                return Err(format!("cannot send to {}: {e}", self.opts.to));
+            }
+        }
+        if self.opts.pcap.is_some() {
+            let at_us = self.us(now);
+            self.packets.push(Packet {
+                at_us,
+                from: from.unwrap_or(self.opts.to),
+                to: self.opts.to,
+                payload: bytes.to_vec(),
+            });
+        }
+        Ok(())
+    }
+
+    pub(crate) fn handle_reply(&mut self, bytes: &[u8], local: SocketAddr, at: Instant) {
+        if self.opts.pcap.is_some() {
+            let at_us = self.us(at);
+            self.packets.push(Packet {
+                at_us,
+                from: self.opts.to,
+                to: local,
+                payload: bytes.to_vec(),
+            });
+        }
+        // M11: a device property other than the reply is a periodic send
+        // (its own Id sequence): checked and counted, not matched.
+        let root = wire::root_name(bytes);
+        let other = self
+            .device
+            .sent()
+            .find(|p| root.as_deref() == Some(p.wire()) && p.wire() != self.reply_prop.wire());
+        if let Some(prop) = other {
+            match wire::check_reply(self.device, prop, bytes) {
+                Ok(_) => *self.received.entry(prop.name.clone()).or_default() += 1,
+                Err(e) => {
+                    self.s.malformed += 1;
+                    self.s
+                        .first_error
+                        .get_or_insert(format!("<{}>: {e}", prop.wire()));
+                }
+            }
+            return;
+        }
+        let reply = match wire::check_reply(self.device, self.reply_prop, bytes) {
+            Ok(r) => r,
+            Err(e) => {
+                self.s.malformed += 1;
+                let device = &self.device.name;
+                let expected = self.reply_prop.wire();
+                let why = match root.as_deref() {
+                    // The layout's own reply, but not as this device has it.
+                    Some(r) if r == expected => format!(
+                        "the reply <{r}> does not match device {device}'s layout ({e}): is the sensor built for another device?"
+                    ),
+                    Some(r) => format!(
+                        "a reply <{r}> is no message device {device} sends (expected <{expected}>): is the sensor built for another device, or with another RRI_REPLY (--reply)?"
+                    ),
+                    None => e,
+                };
+                self.s.first_error.get_or_insert(why);
+                return;
+            }
+        };
+        *self
+            .received
+            .entry(self.reply_prop.name.clone())
+            .or_default() += 1;
+        let Some(w) = self.waiting.get_mut(&reply.id) else {
+            self.s.wrong_id += 1;
+            self.sup.wrong_in_row += 1;
+            self.s.first_error.get_or_insert_with(|| {
+                format!("reply with Id {} to no message sent (M8)", reply.id)
+            });
+            return;
+        };
+        w.expected = w.expected.saturating_sub(1);
+        if w.answered {
+            self.s.duplicate_replies += 1;
+        } else {
+            w.answered = true;
+            let index = w.index;
+            self.cycles[index].reply_us = Some(self.us(at));
+            self.s.answered += 1;
+            // One definition of late everywhere (summary, CSV, plot):
+            // reply time minus actual send time, in µs, beyond one cycle.
+            let latency_us = self.us(at).saturating_sub(self.cycles[index].sent_us);
+            if latency_us > u64::from(self.s.rate_ms) * 1000 {
+                self.s.late += 1;
+                self.sup.late_in_row += 1;
+            }
+            self.sup.last_answer = Some(at);
+            if !self.sup.operating && self.sup.tripped.is_none() {
+                self.sup.operating = true;
+                self.transition("OPERATING (first answer)");
+            }
+        }
+        if self.waiting.get(&reply.id).is_some_and(|w| w.expected == 0) {
+            self.waiting.remove(&reply.id);
+        }
+    }
+
+    /// S1 TimeOut: messages wait and nothing has been answered for longer.
+    pub(crate) fn check_timeout(&mut self, now: Instant) {
+        let oldest = self
+            .waiting
+            .values()
+            .filter(|w| !w.answered)
+            .map(|w| w.sent)
+            .min();
+        if let Some(oldest) = oldest {
+            let since = self.sup.last_answer.map_or(oldest, |a| a.max(oldest));
+            if now.duration_since(since) > self.sup.timeout {
+                let ms = self.sup.timeout.as_millis();
+                self.trip(format!("no answer within TimeOut = {ms} ms"));
+            }
+        }
+    }
+
+    /// Receives and checks replies until `until`, or until message `id`
+    /// is answered when given.
+    pub(crate) fn pump(&mut self, until: Instant, id: Option<u32>) {
+        loop {
+            let now = Instant::now();
+            self.check_timeout(now);
+            if id.is_some_and(|id| self.waiting.get(&id).is_none_or(|w| w.answered)) || now >= until
+            {
+                return;
+            }
+            if self.link.closed {
+                self.trip("the sensor closed the TCP connection".into());
+                return;
+            }
+            // Wake at least every 2 ms for the TimeOut check.
+            let wait = (until - now).min(Duration::from_millis(2));
+            match self.link.events.recv_timeout(wait) {
+                Ok(Event::Data(bytes, local, at)) => self.handle_reply(&bytes, local, at),
+                Ok(Event::Closed) => self.link.closed = true,
+                Err(_) => {}
+            }
+        }
+    }
+}
