@@ -3,7 +3,7 @@
 //! ELF checked against the board's memory map, and its flash and static RAM
 //! against the budgets.
 
-use crate::qemu::{check_memory_map, regions, sections};
+use crate::memory_map::{check_memory_map, regions, sections};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

@@ -12,7 +12,9 @@ pub mod layouts {
 }
 
 pub mod boards;
+pub mod counters;
 pub mod fuzzing;
+pub mod memory_map;
 pub mod qemu;
 pub mod qemu_bench;
 pub mod sensor;

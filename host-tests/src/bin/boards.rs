@@ -42,7 +42,7 @@ fn main() -> ExitCode {
         let result = boards::build(board).and_then(|elf| {
             // Printed first, so an image over budget shows where the bytes
             // went.
-            print_sections(board, &elf, &host_tests::qemu::sections(&elf)?);
+            print_sections(board, &elf, &host_tests::memory_map::sections(&elf)?);
             boards::check(board, &elf)
         });
         match result {

@@ -18,7 +18,8 @@
 //! do not add up. Lost and late replies are reported (see the README).
 
 use clap::Parser;
-use host_tests::qemu::{self, Boot, DeviceCounters, Qemu};
+use host_tests::counters::DeviceCounters;
+use host_tests::qemu::{self, Boot, Qemu};
 use host_tests::qemu_bench as qb;
 use host_tests::robot::{run, RobotOptions};
 use std::net::{Ipv4Addr, SocketAddr};

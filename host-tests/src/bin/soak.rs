@@ -13,7 +13,8 @@
 //! or when the firmware stopped.
 
 use clap::Parser;
-use host_tests::qemu::{self, Boot, DeviceCounters as Counters, Qemu};
+use host_tests::counters::DeviceCounters as Counters;
+use host_tests::qemu::{self, Boot, Qemu};
 use host_tests::robot::fault::Fault;
 use host_tests::robot::{run, RobotOptions};
 use std::process::ExitCode;

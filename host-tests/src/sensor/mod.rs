@@ -10,14 +10,16 @@ use rri_firmware::engine::{
 use rri_firmware::layout;
 use rri_firmware::properties::{DeviceSet, RobotSet};
 use rri_firmware::sample::{Reading, SampleCell};
-use rri_firmware::tcp::{Framer, Stall, StallGuard};
-use std::io::{self, ErrorKind, Read, Write};
-use std::net::{SocketAddr, TcpListener, TcpStream, UdpSocket};
+use std::io::{self, Write};
+use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Sender;
 use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
 use std::time::Duration;
+
+mod tcp;
+mod udp;
 
 /// Device time on the host: microseconds since the sensor started.
 #[derive(Clone, Copy, Debug)]
@@ -299,9 +301,9 @@ pub fn run_layout<R: RobotSet, D: DeviceSet, const RX: usize>(
             }
         });
         let r = if opts.tcp {
-            serve_tcp::<R, D, RX>(&mut sensor, opts, stop, ready)
+            tcp::serve::<R, D, RX>(&mut sensor, opts, stop, ready)
         } else {
-            serve_udp(&mut sensor, opts, stop, ready)
+            udp::serve(&mut sensor, opts, stop, ready)
         };
         stop.store(true, Ordering::Relaxed);
         r
@@ -318,244 +320,4 @@ pub fn run_layout<R: RobotSet, D: DeviceSet, const RX: usize>(
         state: sensor.engine.state(),
         states: sensor.states,
     })
-}
-
-fn serve_udp<R: RobotSet, D: DeviceSet>(
-    sensor: &mut Sensor<'_, '_, R, D>,
-    opts: &SensorOptions,
-    stop: &AtomicBool,
-    ready: Option<Sender<SocketAddr>>,
-) -> io::Result<()> {
-    let socket = UdpSocket::bind(opts.listen)?;
-    socket.set_read_timeout(Some(Duration::from_micros(500)))?;
-    let local = socket.local_addr()?;
-    let _ = writeln!(
-        sensor.log,
-        "listening on udp {local} (device {})",
-        opts.device_name
-    );
-    sensor.engine.listening();
-    sensor.note_state();
-    if let Some(tx) = ready {
-        let _ = tx.send(local);
-    }
-    // One byte more than the layout allows, so a longer datagram is seen
-    // as too long rather than silently cut.
-    let mut buf = vec![0u8; R::MAX_RECEIVE_LEN + 1];
-    while !stop.load(Ordering::Relaxed) {
-        match socket.recv_from(&mut buf) {
-            Ok((n, from)) => {
-                let received = sensor.clock.now();
-                let Some(from) = endpoint(from) else { continue };
-                if let Some((to, len)) = sensor.message(from, buf.get(..n).unwrap_or(&[]), received)
-                {
-                    send_udp(sensor, &socket, to, len);
-                }
-            }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    ErrorKind::WouldBlock | ErrorKind::TimedOut | ErrorKind::Interrupted
-                ) => {}
-            // ICMP port unreachable from a robot that went away.
-            Err(e) if e.kind() == ErrorKind::ConnectionReset => {}
-            Err(e) => return Err(e),
-        }
-        if let Some((to, len)) = sensor.poll() {
-            send_udp(sensor, &socket, to, len);
-        }
-    }
-    Ok(())
-}
-
-/// Sends the reply in `sensor.out`; a failure is counted and logged, never
-/// fatal (a controller that went away, a full socket buffer).
-fn send_udp<R: RobotSet, D: DeviceSet>(
-    sensor: &mut Sensor<'_, '_, R, D>,
-    socket: &UdpSocket,
-    to: Endpoint,
-    len: usize,
-) {
-    let to_addr = SocketAddr::from((to.ip, to.port));
-    if let Err(e) = socket.send_to(&sensor.out[..len], to_addr) {
-        sensor.engine.send_failed();
-        if sensor.engine.stats().send_errors == 1 {
-            let _ = writeln!(
-                sensor.log,
-                "reply to {to_addr} not sent ({e}); counted as send-errors, the sensor goes on"
-            );
-        }
-    }
-}
-
-fn serve_tcp<R: RobotSet, D: DeviceSet, const RX: usize>(
-    sensor: &mut Sensor<'_, '_, R, D>,
-    opts: &SensorOptions,
-    stop: &AtomicBool,
-    ready: Option<Sender<SocketAddr>>,
-) -> io::Result<()> {
-    let listener = TcpListener::bind(opts.listen)?;
-    listener.set_nonblocking(true)?;
-    let local = listener.local_addr()?;
-    let _ = writeln!(
-        sensor.log,
-        "listening on tcp {local} (device {})",
-        opts.device_name
-    );
-    // S2: CONNECTED once it listens, as over UDP (and on the boards).
-    sensor.engine.listening();
-    sensor.note_state();
-    if let Some(tx) = ready {
-        let _ = tx.send(local);
-    }
-    // A connection that arrived while another was served (M10: it may
-    // close a stalled one).
-    let mut waiting: Option<(TcpStream, SocketAddr)> = None;
-    while !stop.load(Ordering::Relaxed) {
-        let next = match waiting.take() {
-            Some(c) => Some(c),
-            None => match listener.accept() {
-                Ok(c) => Some(c),
-                Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::Interrupted) => {
-                    None
-                }
-                // The peer gave up between SYN and accept.
-                Err(e) if e.kind() == ErrorKind::ConnectionAborted => None,
-                Err(e) => return Err(e),
-            },
-        };
-        match next {
-            Some((stream, peer)) => {
-                let _ = writeln!(sensor.log, "connection from {peer}");
-                sensor.engine.listening();
-                sensor.note_state();
-                connection::<R, D, RX>(sensor, &listener, &mut waiting, stream, peer, stop);
-                sensor.engine.peer_closed();
-                sensor.note_state();
-            }
-            None => {
-                let _ = sensor.poll();
-                std::thread::sleep(Duration::from_micros(500));
-            }
-        }
-    }
-    Ok(())
-}
-
-/// Why a connection ended, for the log.
-enum End {
-    Stop,
-    PeerClosed,
-    Framing,
-    SendFailed(io::Error),
-    ReadFailed(io::Error),
-    Stalled(Stall),
-}
-
-/// One TCP connection: framed messages in (M10), replies out, until the
-/// peer closes, a framing error, a failed send, a stall (M10), or stop.
-/// Whatever happens on the connection ends at most the connection.
-fn connection<R: RobotSet, D: DeviceSet, const RX: usize>(
-    sensor: &mut Sensor<'_, '_, R, D>,
-    listener: &TcpListener,
-    waiting: &mut Option<(TcpStream, SocketAddr)>,
-    stream: TcpStream,
-    peer: SocketAddr,
-    stop: &AtomicBool,
-) {
-    let end = serve_connection::<R, D, RX>(sensor, listener, waiting, stream, peer, stop);
-    let why = match end {
-        End::Stop | End::PeerClosed => return,
-        End::Framing => format!("framing error: message longer than {RX} bytes"),
-        End::SendFailed(e) => format!("reply not sent ({e})"),
-        End::ReadFailed(e) => format!("read failed ({e})"),
-        End::Stalled(Stall::Incomplete) => format!(
-            "an incomplete message held longer than TimeOut ({} ms)",
-            sensor.engine.config().timeout_ms
-        ),
-        End::Stalled(Stall::SilentWhileWaiting) => format!(
-            "silent for TimeOut ({} ms) while another connection waits",
-            sensor.engine.config().timeout_ms
-        ),
-    };
-    let _ = writeln!(sensor.log, "closing the connection from {peer}: {why}");
-}
-
-fn serve_connection<R: RobotSet, D: DeviceSet, const RX: usize>(
-    sensor: &mut Sensor<'_, '_, R, D>,
-    listener: &TcpListener,
-    waiting: &mut Option<(TcpStream, SocketAddr)>,
-    mut stream: TcpStream,
-    peer: SocketAddr,
-    stop: &AtomicBool,
-) -> End {
-    let timeout = Duration::from_millis(u64::from(sensor.engine.config().timeout_ms.max(1)));
-    let setup = stream
-        .set_nonblocking(false)
-        .and_then(|()| stream.set_read_timeout(Some(Duration::from_micros(500))))
-        // A peer that stops reading its replies must not block the sensor.
-        .and_then(|()| stream.set_write_timeout(Some(timeout)))
-        .and_then(|()| stream.set_nodelay(true));
-    if let Err(e) = setup {
-        return End::ReadFailed(e);
-    }
-    let Some(from) = endpoint(peer) else {
-        return End::PeerClosed;
-    };
-    let mut framer = Framer::<RX>::new();
-    let mut guard = StallGuard::new(sensor.engine.config().timeout_ms, sensor.clock.now());
-    let mut chunk = [0u8; 4096];
-    let mut replies: Vec<Vec<u8>> = Vec::new();
-    while !stop.load(Ordering::Relaxed) {
-        match stream.read(&mut chunk) {
-            Ok(0) => return End::PeerClosed,
-            Ok(n) => {
-                let received = sensor.clock.now();
-                let mut completed = false;
-                let framed = framer.push(&chunk[..n], |m| {
-                    completed = true;
-                    if let Some((_, len)) = sensor.message(from, m, received) {
-                        replies.push(sensor.out[..len].to_vec());
-                    }
-                });
-                for r in replies.drain(..) {
-                    if let Err(e) = stream.write_all(&r) {
-                        sensor.engine.send_failed();
-                        return End::SendFailed(e);
-                    }
-                }
-                if framed.is_err() {
-                    sensor.engine.framing_error();
-                    return End::Framing;
-                }
-                guard.received(received, completed, framer.pending());
-            }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    ErrorKind::WouldBlock | ErrorKind::TimedOut | ErrorKind::Interrupted
-                ) => {}
-            Err(e) if matches!(e.kind(), ErrorKind::ConnectionReset | ErrorKind::BrokenPipe) => {
-                return End::PeerClosed
-            }
-            Err(e) => return End::ReadFailed(e),
-        }
-        if waiting.is_none() {
-            if let Ok(c) = listener.accept() {
-                let _ = writeln!(sensor.log, "connection from {} waits", c.1);
-                *waiting = Some(c);
-            }
-        }
-        if let Some(stall) = guard.check(sensor.clock.now(), waiting.is_some()) {
-            sensor.engine.stalled();
-            return End::Stalled(stall);
-        }
-        if let Some((_, len)) = sensor.poll() {
-            if let Err(e) = stream.write_all(&sensor.out[..len]) {
-                sensor.engine.send_failed();
-                return End::SendFailed(e);
-            }
-        }
-    }
-    End::Stop
 }

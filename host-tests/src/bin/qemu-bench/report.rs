@@ -1,0 +1,258 @@
+//! The bench's figures: computed from what the two boots measured,
+//! printed, written to `target/qemu-bench/` and gated on the baseline.
+
+use crate::run::MIN_STACK_MARGIN_PERCENT;
+use crate::{
+    instructions, Args, Flooded, Measured, CYCLE_AT_216MHZ, INSTRUCTIONS_PER_COUNT, SHIFT,
+};
+use host_tests::qemu;
+use host_tests::qemu_bench::{Gated, Record, Spread};
+use serde_json::json;
+
+/// Prints every figure, writes the summary, log and histogram files, and
+/// returns whether the gated figures passed.
+pub fn report(args: &Args, m: &Measured, fl: &Flooded) -> Result<bool, String> {
+    // Figures.
+    let mut compute: Vec<u64> = m
+        .sim_records
+        .iter()
+        .map(|r| instructions(r.compute))
+        .collect();
+    let mut full: Vec<u64> = m
+        .sim_records
+        .iter()
+        .filter(|r| r.answered)
+        .map(|r| instructions(r.full))
+        .collect();
+    for (_, rows) in &m.realistic {
+        compute.extend(rows.iter().map(|r| instructions(r.compute)));
+        full.extend(
+            rows.iter()
+                .filter(|r| r.answered)
+                .map(|r| instructions(r.full)),
+        );
+    }
+    let compute = Spread::of(compute);
+    let full = Spread::of(full);
+    // Late as the device measures it (deterministic): a full path longer
+    // than one 4 ms cycle at 216 MHz. The simulator's own "late" is host
+    // wall-clock time through slirp, reported but not gated.
+    let late_device = m
+        .sim_records
+        .iter()
+        .filter(|r| r.answered && instructions(r.full) > CYCLE_AT_216MHZ)
+        .count() as u64;
+    let f = &fl.driven.summary;
+    // Gated: the deterministic run. Under the flood (real time) a wrong or
+    // malformed reply fails too; lost datagrams there are reported, not
+    // gated: they never reach the engine (its Id gaps) and depend on how
+    // QEMU is scheduled on the host.
+    let missed = m.summary.lost
+        + m.summary.wrong_id
+        + m.summary.malformed
+        + late_device
+        + f.wrong_id
+        + f.malformed;
+    let hostile_cost = |rows: &[Record]| -> u64 {
+        rows.iter()
+            .map(|r| {
+                instructions(if r.answered {
+                    r.full.max(r.compute)
+                } else {
+                    r.compute
+                })
+            })
+            .max()
+            .unwrap_or(0)
+    };
+    let hostile_max = m
+        .hostile
+        .iter()
+        .map(|(_, r)| hostile_cost(r))
+        .max()
+        .unwrap_or(0);
+    let baseline_median = m
+        .codec
+        .iter()
+        .find(|c| c.0 == "manual")
+        .map(|c| u64::from(c.4) * INSTRUCTIONS_PER_COUNT)
+        .unwrap_or(0);
+
+    println!("\n== codec on Thumb-2, instructions per message (decode + encode; in-guest, interrupts masked)");
+    println!(
+        "  {:<8} {:>6} {:>10} {:>16} {:>18} {:>8}",
+        "message", "bytes", "ours", "xmlparser alone", "naive baseline", "ratio"
+    );
+    for (name, bytes, ours, tok, base) in &m.codec {
+        let i = |c: &u32| u64::from(*c) * INSTRUCTIONS_PER_COUNT;
+        println!(
+            "  {:<8} {:>6} {:>10} {:>16} {:>18} {:>7.2}×",
+            name,
+            bytes,
+            i(ours),
+            i(tok),
+            i(base),
+            i(ours) as f64 / i(tok).max(1) as f64
+        );
+    }
+    println!("\n== realistic: simulator ({} cycles, the first one warm-up) + manual, IRC5 capture, maximum values ×{}", m.sim_records.len(), args.repeat);
+    let row = |name: &str, s: &Spread| {
+        println!(
+            "  {name:<8} min {:>7}  median {:>7}  p99 {:>7}  max {:>7}  worst/median {:.2}  worst {:.0} µs @216 MHz, {:.0} µs @480 MHz",
+            s.min,
+            s.median,
+            s.p99,
+            s.max,
+            s.max as f64 / s.median.max(1) as f64,
+            s.max as f64 / 216.0,
+            s.max as f64 / 480.0
+        );
+    };
+    row("compute", &compute);
+    row("full", &full);
+    for (input, rows) in &m.realistic {
+        let c = Spread::of(rows.iter().map(|r| instructions(r.compute)).collect());
+        let f = Spread::of(rows.iter().map(|r| instructions(r.full)).collect());
+        println!(
+            "  {:<24} {:>5} B  compute median {:>7}  full median {:>7}",
+            input.name,
+            input.len(),
+            c.median,
+            f.median
+        );
+    }
+    println!(
+        "  robot: sent {} answered {} lost {} wrong Id {} malformed {}; late: {} by the device's count, {} by the host's wall clock through slirp",
+        m.summary.sent, m.summary.answered, m.summary.lost, m.summary.wrong_id, m.summary.malformed, late_device, m.summary.late,
+    );
+    println!("  device: {}", m.counters);
+    println!(
+        "\n== under the flood (real time, {} flood datagrams sent)\n  robot: sent {} answered {} lost {} wrong Id {} malformed {}; late (host wall clock through slirp) {}; latency µs median {} p99 {} max {}",
+        fl.driven.flood_sent, f.sent, f.answered, f.lost, f.wrong_id, f.malformed, f.late,
+        f.latency_us.median, f.latency_us.p99, f.latency_us.max
+    );
+    println!("  device: {}", fl.counters);
+    println!(
+        "\n== hostile: every input {} bytes (MAX_RECEIVE_LEN), ×{} each",
+        host_tests::layouts::anydevice::MAX_RECEIVE_LEN,
+        args.repeat
+    );
+    let mut hostile_json = Vec::new();
+    for (input, rows) in &m.hostile {
+        let worst = hostile_cost(rows);
+        println!(
+            "  {:<28} {:<9} worst {:>8} instructions = {:>5.1} per byte",
+            input.name,
+            if input.accepted {
+                "answered"
+            } else {
+                "rejected"
+            },
+            worst,
+            worst as f64 / input.len() as f64
+        );
+        hostile_json.push(json!({"name": input.name, "bytes": input.len(), "answered": input.accepted, "worst": worst, "per_byte": worst as f64 / input.len() as f64}));
+    }
+    println!(
+        "  worst {hostile_max} instructions ({:.0} µs @216 MHz; budget 216,000 = a quarter cycle)",
+        hostile_max as f64 / 216.0
+    );
+    let (stack_boot, stack_running, stack_size) = m.stack;
+    let stack_used = stack_boot.max(stack_running);
+    let stack_margin = (stack_size - stack_used.min(stack_size)) * 100 / stack_size.max(1);
+    println!(
+        "\n== stack (painted; thread mode and every interrupt share the one main stack)\n  start-up {stack_boot} bytes (building the network stack), running {stack_running} bytes (after the bench and the hostile inputs), of a {stack_size}-byte budget: {stack_margin}% margin (fails under {MIN_STACK_MARGIN_PERCENT}%)"
+    );
+    println!("\nQEMU counts instructions, not cycles: no caches, flash wait states, bus contention or Ethernet DMA are modelled; µs figures assume one instruction per cycle.");
+
+    let gated = Gated {
+        compute_median: compute.median,
+        compute_max: compute.max,
+        full_median: full.median,
+        hostile_max,
+    };
+    let dir = qemu::target_dir().join("qemu-bench");
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let summary_json = json!({
+        "shift": SHIFT,
+        "cycles": m.summary.sent,
+        "missed": missed,
+        "late": late_device,
+        "late_host_wall_clock": m.summary.late,
+        "lost": m.summary.lost,
+        "compute": compute,
+        "full": full,
+        "hostile_max": hostile_max,
+        "hostile": hostile_json,
+        "stack": {"boot": stack_boot, "running": stack_running, "budget": stack_size, "margin_percent": stack_margin},
+        "baseline_compute_median": baseline_median,
+        "codec": m.codec.iter().map(|(n, b, o, t, base)| json!({"message": n, "bytes": b,
+            "ours": u64::from(*o) * INSTRUCTIONS_PER_COUNT, "tokenizer": u64::from(*t) * INSTRUCTIONS_PER_COUNT,
+            "baseline": u64::from(*base) * INSTRUCTIONS_PER_COUNT})).collect::<Vec<_>>(),
+        "flood": {"sent": fl.driven.flood_sent, "robot_sent": f.sent, "answered": f.answered,
+            "lost": f.lost, "late_host_wall_clock": f.late},
+    });
+    let _ = std::fs::write(dir.join("device.log"), m.log.join("\n") + "\n");
+    let _ = std::fs::write(dir.join("device-flood.log"), fl.log.join("\n") + "\n");
+    let path = dir.join("summary.json");
+    std::fs::write(
+        &path,
+        serde_json::to_string_pretty(&summary_json).map_err(|e| e.to_string())?,
+    )
+    .map_err(|e| format!("{}: {e}", path.display()))?;
+    let svg = dir.join("histogram.svg");
+    host_tests::qemu_bench::histogram(
+        &svg,
+        &m.sim_records
+            .iter()
+            .map(|r| instructions(r.compute))
+            .collect::<Vec<_>>(),
+        &m.sim_records
+            .iter()
+            .filter(|r| r.answered)
+            .map(|r| instructions(r.full))
+            .collect::<Vec<_>>(),
+    )?;
+    println!("\nwrote {} and {}", path.display(), svg.display());
+
+    let baseline_path = host_tests::workspace().join(&args.baseline);
+    if args.update_baseline {
+        std::fs::write(
+            &baseline_path,
+            serde_json::to_string_pretty(&gated).map_err(|e| e.to_string())? + "\n",
+        )
+        .map_err(|e| format!("{}: {e}", baseline_path.display()))?;
+        println!("baseline updated: {}", baseline_path.display());
+    }
+    let mut ok = true;
+    if missed > 0 {
+        println!("FAIL: {missed} replies missed, late or wrong");
+        ok = false;
+    }
+    if stack_margin < MIN_STACK_MARGIN_PERCENT {
+        println!("FAIL: stack margin {stack_margin}% is under {MIN_STACK_MARGIN_PERCENT}%");
+        ok = false;
+    }
+    match std::fs::read_to_string(&baseline_path) {
+        Ok(text) => {
+            let base: Gated = serde_json::from_str(&text)
+                .map_err(|e| format!("{}: {e}", baseline_path.display()))?;
+            let regressions = gated.regressions(&base, 0.05);
+            for r in &regressions {
+                println!("FAIL: {r}");
+            }
+            ok &= regressions.is_empty();
+            if regressions.is_empty() {
+                println!(
+                    "baseline {}: every gated figure within 5 %",
+                    baseline_path.display()
+                );
+            }
+        }
+        Err(_) => println!(
+            "no baseline file {} (run with --update-baseline)",
+            baseline_path.display()
+        ),
+    }
+    Ok(ok)
+}
