@@ -85,19 +85,6 @@ pub(super) fn array_component(name: &[u8], len: usize) -> Option<usize> {
     (1..=len).contains(&n).then(|| n - 1)
 }
 
-/// The datagram as text. Robot messages are ASCII; checking that a word at
-/// a time is several times cheaper than full UTF-8 validation, which only
-/// runs when a non-ASCII byte is present.
-#[allow(unsafe_code)]
-pub(super) fn utf8(bytes: &[u8]) -> Result<&str, core::str::Utf8Error> {
-    if bytes.is_ascii() {
-        // SAFETY: every byte is ASCII, and ASCII is valid UTF-8.
-        Ok(unsafe { core::str::from_utf8_unchecked(bytes) })
-    } else {
-        core::str::from_utf8(bytes)
-    }
-}
-
 /// M7: `true/false/1/0` in any case, surrounded by whitespace or not.
 pub fn parse_bool(text: &[u8]) -> Option<bool> {
     let t = trim(text);
