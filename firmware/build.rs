@@ -23,6 +23,7 @@
 //! Every problem is reported as `file:line:col: error[rule]: …` and all of
 //! them at once; the G6 quirks of the manual's example build with a warning.
 
+use rri_vocabulary::{parse_ipv4, MAX_DECIMALS};
 use std::path::{Path, PathBuf};
 
 fn main() {
@@ -44,12 +45,10 @@ fn main() {
     ] {
         println!("cargo:rerun-if-env-changed={var}");
     }
-    let gsi_dir = match env("RRI_GSI_DIR") {
-        Some(dir) if Path::new(&dir).is_absolute() => PathBuf::from(dir),
-        Some(dir) => workspace.join(dir),
-        None => manifest.join("gsi").join("GSI"),
-    };
-    let device = env("RRI_DEVICE");
+    let gsi_config::Selection {
+        dir: gsi_dir,
+        device,
+    } = gsi_config::Selection::from_env(&workspace);
     let mut errors = Vec::new();
     let real_decimals = decimals("RRI_REAL_DECIMALS", &mut errors);
     let time_decimals = decimals("RRI_TIME_DECIMALS", &mut errors);
@@ -130,16 +129,11 @@ fn main() {
     }
 }
 
-fn ipv4(text: &str) -> Option<[u8; 4]> {
-    let octets: Option<Vec<u8>> = text.trim().split('.').map(|p| p.parse().ok()).collect();
-    octets.and_then(|o| o.try_into().ok())
-}
-
 /// `RRI_NETMASK` and `RRI_GATEWAY`, as Rust constants for `network.rs`.
 fn network(errors: &mut Vec<String>) -> String {
     let prefix = match env("RRI_NETMASK") {
         None => 24,
-        Some(v) => match (v.trim().parse::<u8>(), ipv4(&v)) {
+        Some(v) => match (v.trim().parse::<u8>(), parse_ipv4(&v)) {
             (Ok(bits), _) if bits <= 32 => bits,
             (_, Some(mask))
                 if u32::from_be_bytes(mask).leading_ones()
@@ -157,7 +151,7 @@ fn network(errors: &mut Vec<String>) -> String {
     };
     let gateway = match env("RRI_GATEWAY") {
         None => "None".to_string(),
-        Some(v) => match ipv4(&v) {
+        Some(v) => match parse_ipv4(&v) {
             Some([a, b, c, d]) => format!("Some([{a}, {b}, {c}, {d}])"),
             None => {
                 errors.push(format!(
@@ -183,11 +177,11 @@ fn decimals(var: &str, errors: &mut Vec<String>) -> u8 {
     match env(var) {
         None => 3,
         Some(v) => match v.trim().parse::<u8>() {
-            Ok(n) if n <= gsi_codegen::MAX_DECIMALS => n,
+            Ok(n) if n <= MAX_DECIMALS => n,
             _ => {
                 errors.push(format!(
                     "{var}={v}: must be a number of decimals 0..={}",
-                    gsi_codegen::MAX_DECIMALS
+                    MAX_DECIMALS
                 ));
                 3
             }
@@ -202,7 +196,7 @@ fn controller(errors: &mut Vec<String>) -> Option<([u8; 4], Option<u16>)> {
         Some((ip, port)) => (ip, Some(port)),
         None => (v.trim(), None),
     };
-    let ip = ipv4(ip);
+    let ip = parse_ipv4(ip);
     let port = match port.map(|p| p.parse::<u16>()) {
         None => Ok(None),
         Some(Ok(p)) if p > 0 => Ok(Some(p)),

@@ -15,9 +15,9 @@ use crate::value::Time;
 
 /// Most properties one direction may have. The engine keeps an Id tracker
 /// per robot property and a schedule per periodic device property in
-/// arrays of this size; gsi-codegen refuses a configuration with more
+/// arrays of this size; the GSI compiler refuses a configuration with more
 /// (G3 sets no limit; a device with more than a handful is unheard of).
-pub const MAX_PROPERTIES: usize = 16;
+pub use rri_vocabulary::MAX_PROPERTIES;
 
 /// Every property the controller may send (G3: `WriteOnly`, `ReadWrite`
 /// or no `Flag`), each with its last good value (M2).

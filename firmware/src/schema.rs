@@ -1,58 +1,10 @@
-//! The vocabulary of the generated layouts: transport settings, message
-//! directions and the [`Message`] trait every generated property implements,
-//! so the codec and the cycle engine can work on any configuration.
+//! The vocabulary of the generated layouts: the [`Message`] trait every
+//! generated property implements and the field views the codec works
+//! through, so the codec and the cycle engine can work on any
+//! configuration. The protocol's words and limits (transports, directions,
+//! number format) come from `rri-vocabulary`, which the GSI compiler shares.
 
-/// Transport of the cyclic channel (Description.xml `<Channel Protocol>`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ChannelProtocol {
-    Udp,
-    Tcp,
-    /// The controller's high-priority UDP path: plain UDP on the wire.
-    HpUdp,
-}
-
-impl ChannelProtocol {
-    /// True for both UDP flavours (M10 framing applies only to TCP).
-    pub const fn is_udp(self) -> bool {
-        matches!(self, ChannelProtocol::Udp | ChannelProtocol::HpUdp)
-    }
-}
-
-/// The controller's physical Ethernet port (informational for the device).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ControllerPort {
-    Lan,
-    Service,
-    Axc1,
-    Axc2,
-    Axc3,
-    Axc4,
-}
-
-/// Which way a property travels (G3 `Flag`, seen from RAPID).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Direction {
-    /// `Flag="None"`.
-    None,
-    /// `Flag="WriteOnly"`: the controller sends it to the device.
-    RobotToDevice,
-    /// `Flag="ReadOnly"`: the device sends it to the controller.
-    DeviceToRobot,
-    /// `Flag="ReadWrite"` or omitted.
-    Both,
-}
-
-impl Direction {
-    /// The controller sends this property to the device.
-    pub const fn robot_sends(self) -> bool {
-        matches!(self, Direction::RobotToDevice | Direction::Both)
-    }
-
-    /// The device sends this property to the controller.
-    pub const fn device_sends(self) -> bool {
-        matches!(self, Direction::DeviceToRobot | Direction::Both)
-    }
-}
+pub use rri_vocabulary::{ControllerPort, Direction, Format, Protocol, MAX_FIELDS};
 
 /// One property of Configuration.xml as a message type (M1): its data type,
 /// names and the compile-time bounds of its encoded form.
@@ -63,6 +15,8 @@ pub trait Message {
     const NAME: &'static str;
     /// The root element name on the wire (`Alias`, else `Name`).
     const WIRE_NAME: &'static str;
+    /// Who sends it (G3 `Flag`): the engine decodes only what the
+    /// controller sends and encodes only what the device sends.
     const DIRECTION: Direction;
     /// Most bytes our encoder can write for this message.
     const MAX_ENCODED_LEN: usize;
@@ -82,33 +36,57 @@ pub trait WireEnum {
     fn set_from_wire(&mut self, text: &[u8]) -> bool;
 }
 
-/// Mutable access to one field's value, for the decoder.
+/// Mutable access to one field's value, for the decoder: one variant per
+/// G5 type, so the decoder parses text by type without knowing the record.
 pub enum FieldMut<'a> {
+    /// `bool`, element text (M3, M7).
     Bool(&'a mut bool),
+    /// `real`/`num`, element text (M3, M5).
     Real(&'a mut f32),
+    /// `time`, element text, exact to the microsecond (M3, M5).
     Time(&'a mut Time),
+    /// `string`, element text, at most 80 bytes (M3, M6).
     Str(&'a mut RriString),
+    /// A generated enum, element text matched against its members (M3).
     Enum(&'a mut dyn WireEnum),
+    /// `frame`/`pose`: attributes `X Y Z Rx Ry Rz` (M4).
     Frame(&'a mut Frame),
+    /// `joints`: attributes `J1..J6` (M4).
     Joints(&'a mut Joints),
+    /// An array of `bool`: attributes `X1..XN` (M4).
     Bools(&'a mut [bool]),
+    /// An array of `real`: attributes `X1..XN` (M4).
     Reals(&'a mut [f32]),
+    /// An array of `time`: attributes `X1..XN` (M4).
     Times(&'a mut [Time]),
+    /// An array of `string`: attributes `X1..XN` (M4).
     Strs(&'a mut [RriString]),
 }
 
-/// Read access to one field's value, for the encoder.
+/// Read access to one field's value, for the encoder; the variants mirror
+/// [`FieldMut`]'s.
 pub enum FieldRef<'a> {
+    /// `bool`, written `TRUE`/`FALSE` (M7).
     Bool(bool),
+    /// `real`, written with the configured decimals (M5).
     Real(f32),
+    /// `time`, written with the configured decimals (M5).
     Time(Time),
+    /// `string`, XML-escaped on the way out (M6).
     Str(&'a RriString),
+    /// A generated enum's wire text (its alias, else its name).
     Enum(&'static str),
+    /// `frame`/`pose` (M4).
     Frame(&'a Frame),
+    /// `joints` (M4).
     Joints(&'a Joints),
+    /// An array of `bool` (M4).
     Bools(&'a [bool]),
+    /// An array of `real` (M4).
     Reals(&'a [f32]),
+    /// An array of `time` (M4).
     Times(&'a [Time]),
+    /// An array of `string` (M4).
     Strs(&'a [RriString]),
 }
 
@@ -119,20 +97,19 @@ pub enum FieldRef<'a> {
 pub struct FieldWire {
     /// Element name (alias, else name).
     pub name: &'static [u8],
+    /// What the encoder writes before the value: `<EStr>` (M3) or
+    /// `<P_act` (M4, the attributes follow).
     pub open: &'static [u8],
+    /// What it writes after: `</EStr>` or `/>`.
     pub close: &'static [u8],
 }
 
 impl FieldWire {
+    /// The generated tables are `const`, so this is a `const fn`.
     pub const fn new(name: &'static [u8], open: &'static [u8], close: &'static [u8]) -> Self {
         FieldWire { name, open, close }
     }
 }
-
-/// Most fields a record has (G3; gsi-config refuses more). The decoder's
-/// duplicate check keeps one bit per field in a `u64`, and code that walks
-/// a record by index stops here at the latest.
-pub const MAX_FIELDS: usize = 64;
 
 /// A generated record: its fields by index, in Configuration order.
 pub trait Record {
@@ -140,7 +117,9 @@ pub trait Record {
     const FIELDS: &'static [FieldWire];
     /// The index of the field whose element name is `name`.
     fn field_index(name: &[u8]) -> Option<usize>;
+    /// The field at `index` for the encoder; `None` past the last.
     fn field(&self, index: usize) -> Option<FieldRef<'_>>;
+    /// The field at `index` for the decoder; `None` past the last.
     fn field_mut(&mut self, index: usize) -> Option<FieldMut<'_>>;
 }
 
@@ -156,6 +135,8 @@ pub enum Body {
 
 /// The codec's view of a generated message type.
 pub trait MessageCodec: Message {
+    /// Whether the body is a record's child elements or the root's own
+    /// value.
     const BODY: Body;
     /// `<Root Id="`: the fixed start of every encoded message.
     const OPEN: &'static [u8];
@@ -167,14 +148,11 @@ pub trait MessageCodec: Message {
     /// ` X1="`, ` X2="`, …: attribute openers of array elements (M4),
     /// precomputed for the longest array of the layout.
     const ARRAY_ATTRS: &'static [&'static [u8]] = &[];
+    /// [`Record::field_index`] of the message's record; always `None` for
+    /// a [`Body::Value`], which has no child elements.
     fn field_index(name: &[u8]) -> Option<usize>;
+    /// [`Record::field`] of `data`, or the value itself at index 0.
     fn field(data: &Self::Data, index: usize) -> Option<FieldRef<'_>>;
+    /// [`Record::field_mut`] of `data`, or the value itself at index 0.
     fn field_mut(data: &mut Self::Data, index: usize) -> Option<FieldMut<'_>>;
-}
-
-/// How numbers are written in sent messages (M5), from the build settings.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Format {
-    pub real_decimals: u8,
-    pub time_decimals: u8,
 }

@@ -5,8 +5,8 @@ use crate::codec::{encode, BufferTooSmall, DecodeError, Decoded, Encoded};
 use crate::engine::{Config as EngineConfig, Periodic, Pinned};
 use crate::properties::{decode_committed, DeviceSet, RobotSet};
 use crate::schema::{
-    Body, ChannelProtocol, ControllerPort, Direction, FieldMut, FieldRef, FieldWire, Format,
-    Message, MessageCodec, Record, WireEnum,
+    Body, ControllerPort, Direction, FieldMut, FieldRef, FieldWire, Format, Message, MessageCodec,
+    Protocol, Record, WireEnum,
 };
 use crate::value::{Frame, Joints, RriString, Time};
 
@@ -23,7 +23,7 @@ pub const NETWORK_IPV4: Option<[u8; 4]> = Some([10, 49, 65, 74]);
 /// The controller's physical port the device is cabled to (`<Network Port>`).
 pub const CONTROLLER_PORT: ControllerPort = ControllerPort::Service;
 /// Transport of the cyclic channel (`<Channel Protocol>`).
-pub const CHANNEL_PROTOCOL: ChannelProtocol = ChannelProtocol::Udp;
+pub const CHANNEL_PROTOCOL: Protocol = Protocol::Udp;
 /// Port the device listens on (`<Channel Port>`).
 pub const CHANNEL_PORT: u16 = 3002;
 /// S1: the controller's answer timeout in milliseconds (`<TimeOut>`).

@@ -41,18 +41,6 @@ pub fn shared_rri() -> PathBuf {
 /// same environment as this build: `RRI_GSI_DIR`, `RRI_DEVICE`), so host
 /// tools can read at run time the configuration the engine was built for.
 pub fn built_gsi() -> (PathBuf, Option<String>) {
-    let dir = match std::env::var("RRI_GSI_DIR")
-        .ok()
-        .filter(|v| !v.trim().is_empty())
-    {
-        Some(d) if std::path::Path::new(&d).is_absolute() => PathBuf::from(d),
-        Some(d) => workspace().join(d),
-        None => workspace().join("firmware/gsi/GSI"),
-    };
-    (
-        dir,
-        std::env::var("RRI_DEVICE")
-            .ok()
-            .filter(|v| !v.trim().is_empty()),
-    )
+    let gsi_config::Selection { dir, device } = gsi_config::Selection::from_env(&workspace());
+    (dir, device)
 }

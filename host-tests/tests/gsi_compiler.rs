@@ -114,7 +114,7 @@ fn g6_manual_example_builds_with_its_two_warnings() {
     let d = &loaded.device;
     assert_eq!(d.name, "AnyDevice");
     assert_eq!(d.network.address, "10.49.65.74");
-    assert_eq!(d.network.port, gsi_config::PhysicalPort::Service);
+    assert_eq!(d.network.port, gsi_config::ControllerPort::Service);
     assert_eq!(d.channel.protocol, gsi_config::Protocol::Udp);
     assert_eq!(d.channel.port, 3002);
     assert_eq!(
@@ -133,7 +133,13 @@ fn g6_manual_example_builds_with_its_two_warnings() {
     let dirs: Vec<_> = d
         .properties
         .iter()
-        .map(|p| (p.wire(), p.flag.robot_sends(), p.flag.device_sends()))
+        .map(|p| {
+            (
+                p.wire(),
+                p.direction.robot_sends(),
+                p.direction.device_sends(),
+            )
+        })
         .collect();
     assert_eq!(
         dirs,
@@ -162,7 +168,7 @@ fn real_world_udptest_builds() {
     let d = &loaded.device;
     assert_eq!(
         d.network.port,
-        gsi_config::PhysicalPort::Lan,
+        gsi_config::ControllerPort::Lan,
         "Port omitted = Lan (G2)"
     );
     assert_eq!(d.channel.port, 2999);

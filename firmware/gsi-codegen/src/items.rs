@@ -5,10 +5,8 @@
 use crate::emit::{self, str_lit, Emitter};
 use crate::resolve::Idents;
 use crate::sizes;
-use crate::types::{
-    default_expr, direction, field_mut, field_ref, rust_type, type_doc, wire_doc, Value,
-};
-use gsi_config::{Device, Flag, Link, SimpleType, TypeRef};
+use crate::types::{default_expr, field_mut, field_ref, rust_type, type_doc, wire_doc, Value};
+use gsi_config::{Device, Direction, Link, SimpleType, TypeRef};
 
 pub(crate) fn emit_enum(e: &mut Emitter, id: &Idents, i: usize, en: &gsi_config::Enum) {
     let name = &id.enums[i];
@@ -221,19 +219,19 @@ pub(crate) fn emit_message(
     (enc, rcv): (usize, usize),
 ) {
     let name = &id.messages[i];
-    let travel = match p.flag {
-        Flag::None => "travels in neither direction",
-        Flag::ReadOnly => "the device sends it to the controller",
-        Flag::WriteOnly => "the controller sends it to the device",
-        Flag::ReadWrite => "it travels in both directions",
+    let travel = match p.direction {
+        Direction::None => "travels in neither direction",
+        Direction::DeviceToRobot => "the device sends it to the controller",
+        Direction::RobotToDevice => "the controller sends it to the device",
+        Direction::Both => "it travels in both directions",
     };
     e.doc(format!(
         "Property `{}` of type {} (`Flag=\"{}\"`): {travel}.",
         p.name,
         type_doc(d, p.ty, p.size, p.link),
-        p.flag.as_str()
+        p.direction.flag()
     ));
-    if p.flag != Flag::None {
+    if p.direction != Direction::None {
         e.doc("");
         e.doc(format!(
             "On the wire: `<{} Id=\"…\" Ts=\"…\">…</{}>` (M1).",
@@ -251,9 +249,11 @@ pub(crate) fn emit_message(
         "const WIRE_NAME: &'static str = {};",
         str_lit(p.wire())
     ));
+    // The variant's own name (Debug of a unit variant): the generated code
+    // names the same `rri_vocabulary::Direction`, so a mismatch cannot build.
     e.line(format!(
-        "const DIRECTION: Direction = Direction::{};",
-        direction(p.flag)
+        "const DIRECTION: Direction = Direction::{:?};",
+        p.direction
     ));
     e.line(format!("const MAX_ENCODED_LEN: usize = {enc};"));
     e.line(format!("const MAX_RECEIVE_LEN: usize = {rcv};"));

@@ -25,6 +25,7 @@ use emit::Emitter;
 use gsi_config::{Device, Diagnostic, Pos, Rule, SimpleType, TypeRef};
 use items::{emit_enum, emit_message, emit_record};
 use resolve::{diag, idents};
+use rri_vocabulary::Format;
 use settings::{emit_array_attrs, emit_settings, emit_totals};
 
 /// Build-time choices that are not in the GSI files.
@@ -67,18 +68,14 @@ impl Default for Options {
     }
 }
 
-/// Most decimals the fixed-point encoder writes (time is held in µs).
-pub const MAX_DECIMALS: u8 = 6;
+pub use rri_vocabulary::MAX_DECIMALS;
 
 /// Generates the layout source for `device`. Errors (name collisions in
 /// Rust, messages larger than a datagram) name Configuration.xml positions.
 pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnostic>> {
     let mut errors = Vec::new();
     let id = idents(device, &mut errors);
-    let format = sizes::Format {
-        real_decimals: opts.real_decimals.min(MAX_DECIMALS),
-        time_decimals: opts.time_decimals.min(MAX_DECIMALS),
-    };
+    let format = Format::new(opts.real_decimals, opts.time_decimals);
     let mut message_sizes = Vec::new();
     for p in &device.properties {
         let (enc, rcv) = sizes::message_sizes(device, p, format);
@@ -138,15 +135,18 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
     ));
     e.line("// Do not edit: change Description.xml / Configuration.xml and rebuild.");
     e.blank();
-    let mut schema = vec!["Body", "ChannelProtocol", "ControllerPort", "Direction"];
-    schema.extend([
+    let mut schema = vec![
+        "Body",
+        "ControllerPort",
+        "Direction",
         "FieldMut",
         "FieldRef",
         "FieldWire",
         "Format",
         "Message",
         "MessageCodec",
-    ]);
+        "Protocol",
+    ];
     if !device.records.is_empty() {
         schema.push("Record");
     }

@@ -9,10 +9,9 @@ use crate::resolve::Idents;
 use crate::types::{default_expr, rust_type};
 use gsi_config::Device;
 
-/// Most properties per direction: the firmware's
-/// `properties::MAX_PROPERTIES`, which sizes the engine's per-property
-/// arrays.
-pub const MAX_PROPERTIES: usize = 16;
+/// Most properties per direction: the firmware sizes its per-property
+/// arrays with the same constant.
+pub use rri_vocabulary::MAX_PROPERTIES;
 
 /// The position among the properties the device sends of the one a build
 /// setting names; the error lists the choices.
@@ -26,7 +25,7 @@ pub fn device_property(device: &Device, setting: &str, name: &str) -> Result<usi
         Some(p) => format!(
             "property \"{}\" is Flag=\"{}\": the device never sends it",
             p.name,
-            p.flag.as_str()
+            p.direction.flag()
         ),
         None => format!("no property \"{name}\" in the configuration"),
     };

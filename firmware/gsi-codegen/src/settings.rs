@@ -5,10 +5,11 @@
 use crate::emit::{self, str_lit, Emitter};
 use crate::resolve::Idents;
 use crate::sets;
-use crate::{sizes, Options};
+use crate::Options;
 use gsi_config::Device;
+use rri_vocabulary::{parse_ipv4, Format};
 
-pub(crate) fn emit_settings(e: &mut Emitter, d: &Device, f: sizes::Format, opts: &Options) {
+pub(crate) fn emit_settings(e: &mut Emitter, d: &Device, f: Format, opts: &Options) {
     e.doc("Device name (Description.xml `<Name>`, Settings.xml client).");
     e.line(format!(
         "pub const DEVICE_NAME: &str = {};",
@@ -30,7 +31,7 @@ pub(crate) fn emit_settings(e: &mut Emitter, d: &Device, f: sizes::Format, opts:
         str_lit(&d.network.address)
     ));
     e.doc("[`NETWORK_ADDRESS`] as IPv4 octets, `None` when it is a host name.");
-    match ipv4(&d.network.address) {
+    match parse_ipv4(&d.network.address) {
         Some([a, b, c, dd]) => e.line(format!(
             "pub const NETWORK_IPV4: Option<[u8; 4]> = Some([{a}, {b}, {c}, {dd}]);"
         )),
@@ -43,7 +44,7 @@ pub(crate) fn emit_settings(e: &mut Emitter, d: &Device, f: sizes::Format, opts:
     ));
     e.doc("Transport of the cyclic channel (`<Channel Protocol>`).");
     e.line(format!(
-        "pub const CHANNEL_PROTOCOL: ChannelProtocol = ChannelProtocol::{};",
+        "pub const CHANNEL_PROTOCOL: Protocol = Protocol::{};",
         d.channel.protocol.as_str()
     ));
     e.doc("Port the device listens on (`<Channel Port>`).");
@@ -114,16 +115,6 @@ pub(crate) fn emit_settings(e: &mut Emitter, d: &Device, f: sizes::Format, opts:
     e.close(";");
 }
 
-/// Parses dotted-quad IPv4 text.
-pub(crate) fn ipv4(address: &str) -> Option<[u8; 4]> {
-    let parts: Vec<u8> = address
-        .split('.')
-        .map(|p| p.parse::<u8>())
-        .collect::<Result<_, _>>()
-        .ok()?;
-    parts.try_into().ok()
-}
-
 /// The ` X<i>="` attribute openers of arrays (M4) up to the longest array
 /// of the layout, so the encoder copies them instead of formatting indices.
 pub(crate) fn emit_array_attrs(e: &mut Emitter, d: &Device) {
@@ -158,10 +149,10 @@ pub(crate) fn emit_totals(
     opts: &Options,
 ) {
     let received: Vec<usize> = (0..d.properties.len())
-        .filter(|&i| d.properties[i].flag.robot_sends())
+        .filter(|&i| d.properties[i].direction.robot_sends())
         .collect();
     let sent: Vec<usize> = (0..d.properties.len())
-        .filter(|&i| d.properties[i].flag.device_sends())
+        .filter(|&i| d.properties[i].direction.device_sends())
         .collect();
     let list = |idx: &[usize]| -> Vec<String> {
         idx.iter()

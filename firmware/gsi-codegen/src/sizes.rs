@@ -23,15 +23,11 @@ const REAL_INT: usize = 1 + 39;
 /// Whole seconds of [`Time`] (i64 microseconds) have at most 13 digits.
 const TIME_INT: usize = 1 + 13;
 
-/// Longest string in characters (G5, M6).
-pub const MAX_STRING_CHARS: usize = 80;
+/// Longest string (G5, M6): 80 bytes in the firmware, so at most 80
+/// characters.
+use rri_vocabulary::MAX_STRING_LEN as MAX_STRING_CHARS;
 
-/// How values are written, for the encoded size.
-#[derive(Clone, Copy, Debug)]
-pub struct Format {
-    pub real_decimals: u8,
-    pub time_decimals: u8,
-}
+pub use rri_vocabulary::Format;
 
 fn fraction(decimals: u8) -> usize {
     if decimals == 0 {

@@ -3,7 +3,7 @@
 
 use crate::resolve::Idents;
 use crate::sizes;
-use gsi_config::{Device, Flag, Link, SimpleType, TypeRef};
+use gsi_config::{Device, Link, SimpleType, TypeRef};
 
 /// The Rust type of a value of `ty`, as an array when `size` is given.
 pub(crate) fn rust_type(id: &Idents, ty: TypeRef, size: Option<u16>) -> String {
@@ -123,14 +123,5 @@ pub(crate) fn variant(ty: TypeRef, size: Option<u16>) -> &'static str {
         (TypeRef::Enum(_), _) => "Enum",
         // Records are never fields or simple values (G3).
         (TypeRef::Record(_), _) => "Record",
-    }
-}
-
-pub(crate) fn direction(flag: Flag) -> &'static str {
-    match flag {
-        Flag::None => "None",
-        Flag::ReadOnly => "DeviceToRobot",
-        Flag::WriteOnly => "RobotToDevice",
-        Flag::ReadWrite => "Both",
     }
 }

@@ -1,7 +1,7 @@
 //! G2: Description.xml, the device's name, network, channel and supervision.
 
 use crate::diag::{Rule, Sink};
-use crate::model::{Channel, Network, PhysicalPort, Protocol, Supervision};
+use crate::model::{Channel, ControllerPort, Network, Protocol, Supervision};
 use crate::names::{check_rapid_name, keyword, parse_bool};
 use crate::xml::Element;
 
@@ -9,11 +9,17 @@ use crate::xml::Element;
 /// (an error has then been reported).
 #[derive(Debug, Default)]
 pub struct Description {
+    /// `<Name>`: must be the CDP client's name in Settings.xml (G2).
     pub name: Option<String>,
+    /// `<Type>`: free text, informational.
     pub device_type: String,
+    /// `<Class>`: free text, informational.
     pub class: String,
+    /// `<Network Address Port?>`.
     pub network: Option<Network>,
+    /// `<Network><Channel Type="Cyclic" Protocol Port>`.
     pub channel: Option<Channel>,
+    /// `<Settings>`: `TimeOut`, `MaxLost`, `DryRun` (S1).
     pub supervision: Option<Supervision>,
 }
 
@@ -117,10 +123,9 @@ fn read_network(el: &Element<'_>, sink: &mut Sink<'_>) -> (Option<Network>, Opti
         Some(a) => Some(a.value.trim().to_string()),
     };
     let port = match el.attr("Port") {
-        None => Some(PhysicalPort::Lan),
+        None => Some(ControllerPort::Lan),
         Some(a) => {
-            let table: Vec<_> = PhysicalPort::ALL.iter().map(|p| (p.as_str(), *p)).collect();
-            let found = keyword(&a.value, &table);
+            let found = ControllerPort::from_gsi(&a.value);
             if found.is_none() {
                 sink.error(
                     Rule::G2,
@@ -184,8 +189,7 @@ fn read_channel(el: &Element<'_>, sink: &mut Sink<'_>) -> Option<Channel> {
             None
         }
         Some(a) => {
-            let table: Vec<_> = Protocol::ALL.iter().map(|p| (p.as_str(), *p)).collect();
-            let found = keyword(&a.value, &table);
+            let found = Protocol::from_gsi(&a.value);
             if found.is_none() {
                 sink.error(
                     Rule::G2,

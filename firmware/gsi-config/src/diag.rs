@@ -44,28 +44,39 @@ impl fmt::Display for Rule {
 /// Whether a diagnostic stops the build.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Severity {
+    /// A rule is broken: the folder does not load and the build stops.
     Error,
+    /// Accepted and printed (a G6 quirk, an ignored element); the load goes on.
     Warning,
 }
 
 /// A 1-based line and column (columns count characters, not bytes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Default)]
 pub struct Pos {
+    /// 1-based line.
     pub line: u32,
+    /// 1-based column, in characters.
     pub col: u32,
 }
 
 /// One finding in one file.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Diagnostic {
+    /// Whether it stops the build.
     pub severity: Severity,
+    /// The rule it is about; a missing or unreadable file is reported under
+    /// the rule of that file (G1, G2 or G3).
     pub rule: Rule,
+    /// The file, as the path it was read from.
     pub file: PathBuf,
+    /// Where in `file` the problem is.
     pub pos: Pos,
+    /// What is wrong, without file, position or rule (`Display` adds them).
     pub message: String,
 }
 
 impl Diagnostic {
+    /// Whether this is a [`Severity::Error`], which stops the build.
     pub fn is_error(&self) -> bool {
         self.severity == Severity::Error
     }
@@ -111,18 +122,22 @@ pub struct Sink<'a> {
 }
 
 impl<'a> Sink<'a> {
+    /// A sink for the diagnostics of `file`, appended to `out`.
     pub fn new(file: &'a Path, out: &'a mut Vec<Diagnostic>) -> Self {
         Sink { file, out }
     }
 
+    /// The file its diagnostics are about.
     pub fn file(&self) -> &Path {
         self.file
     }
 
+    /// Reports an error at `pos`: the folder will not load.
     pub fn error(&mut self, rule: Rule, pos: Pos, message: impl Into<String>) {
         self.push(Severity::Error, rule, pos, message.into());
     }
 
+    /// Reports a warning at `pos`: printed, the load goes on.
     pub fn warning(&mut self, rule: Rule, pos: Pos, message: impl Into<String>) {
         self.push(Severity::Warning, rule, pos, message.into());
     }

@@ -25,16 +25,19 @@
 //! # Ok::<(), String>(())
 //! ```
 
+#![warn(missing_docs)]
 pub mod configuration;
 pub mod description;
 mod diag;
 mod model;
 pub mod names;
+mod selection;
 pub mod settings;
 pub mod xml;
 
 pub use diag::{Diagnostic, Pos, Rule, Severity, Sink};
 pub use model::*;
+pub use selection::{Selection, DEFAULT_GSI_DIR};
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -44,11 +47,15 @@ use std::path::{Path, PathBuf};
 /// ask to be re-run when one of them changes.
 #[derive(Clone, Debug)]
 pub struct Failed {
+    /// Every error and warning, in the order the files were read; at least
+    /// one is an error.
     pub diagnostics: Vec<Diagnostic>,
+    /// The files looked at, missing ones included, for `rerun-if-changed`.
     pub files: Vec<PathBuf>,
 }
 
 impl Failed {
+    /// The diagnostics with [`Severity::Error`], the ones that stopped the load.
     pub fn errors(&self) -> impl Iterator<Item = &Diagnostic> {
         self.diagnostics.iter().filter(|d| d.is_error())
     }

@@ -2,12 +2,9 @@
 
 use crate::diag::{Pos, Rule, Sink};
 
-/// Longest RAPID symbol the controller accepts (G4).
-pub const MAX_NAME_LEN: usize = 16;
-
-/// Longest RAPID string (G5, M6); also the longest enum alias we accept,
-/// since an alias travels as a string value.
-pub const MAX_STRING_LEN: usize = 80;
+/// Longest RAPID symbol (G4) and longest RAPID string (G5, M6; also the
+/// longest enum alias we accept, since an alias travels as a string value).
+pub use rri_vocabulary::{MAX_NAME_LEN, MAX_STRING_LEN};
 
 /// G4: ASCII letter first, then ASCII letters, digits and `_`, at most 16.
 /// Reports the first problem found and returns whether the name is valid.
@@ -68,12 +65,9 @@ pub fn keyword<T: Copy>(value: &str, table: &[(&str, T)]) -> Option<T> {
         .map(|(_, v)| *v)
 }
 
-/// Booleans in GSI files: `true`/`false` in any case, and `1`/`0`.
+/// Booleans in GSI files: the words of messages (M7), around whitespace.
 pub fn parse_bool(value: &str) -> Option<bool> {
-    keyword(
-        value,
-        &[("true", true), ("false", false), ("1", true), ("0", false)],
-    )
+    rri_vocabulary::parse_bool(value.trim().as_bytes())
 }
 
 #[cfg(test)]

@@ -7,7 +7,10 @@ use crate::xml::Element;
 /// One `Client` entry.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Client {
+    /// `Name`: the device name and the name of its sub-folder (G1), a RAPID
+    /// name (G4).
     pub name: String,
+    /// Where the `Name` attribute is.
     pub pos: Pos,
 }
 
@@ -15,10 +18,15 @@ pub struct Client {
 /// (for errors about choosing a device).
 #[derive(Clone, Debug, Default)]
 pub struct Settings {
+    /// `<Clients><Client>` entries with a valid name, unique case-insensitively.
     pub clients: Vec<Client>,
+    /// Where `<Clients>` is (the root element when there is none).
     pub pos: Pos,
 }
 
+/// Reads and checks Settings.xml (G1): the `<Client Convention="CDP" Name>`
+/// entries of `<Clients>`; `<Servers>` is ignored, other elements with a
+/// warning.
 pub fn read(root: &Element<'_>, sink: &mut Sink<'_>) -> Settings {
     let mut settings = Settings {
         clients: Vec::new(),

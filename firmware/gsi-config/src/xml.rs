@@ -9,7 +9,9 @@ use xmlparser::{ElementEnd, Token, Tokenizer};
 /// An attribute as written, with its value's entities decoded.
 #[derive(Debug, Clone)]
 pub struct Attr<'a> {
+    /// The name as written, prefix included (`xml:lang`).
     pub name: &'a str,
+    /// The value, with entities and character references decoded ([`unescape`]).
     pub value: String,
     /// Where the attribute name starts.
     pub pos: Pos,
@@ -18,21 +20,33 @@ pub struct Attr<'a> {
 /// A run of character data inside an element.
 #[derive(Debug, Clone)]
 pub struct Text {
+    /// The characters, untrimmed, with entities and character references
+    /// decoded ([`unescape`]).
     pub text: String,
+    /// Where the first non-whitespace character is (just past the run when it
+    /// is all whitespace).
     pub pos: Pos,
 }
 
+/// An element with its attributes, child elements and text, each in file
+/// order. Comments, processing instructions and the declaration are dropped.
 #[derive(Debug, Clone)]
 pub struct Element<'a> {
+    /// The tag name as written, prefix included.
     pub name: &'a str,
     /// Where the `<` of the start tag is.
     pub pos: Pos,
+    /// The attributes, in the order written.
     pub attrs: Vec<Attr<'a>>,
+    /// The child elements, in file order.
     pub children: Vec<Element<'a>>,
+    /// The text runs (CDATA included), whitespace between children too; where
+    /// they sit between `children` is not kept.
     pub texts: Vec<Text>,
 }
 
 impl<'a> Element<'a> {
+    /// The first attribute called `name` (case-sensitive), if any.
     pub fn attr(&self, name: &str) -> Option<&Attr<'a>> {
         self.attrs.iter().find(|a| a.name == name)
     }
@@ -55,6 +69,7 @@ impl<'a> Element<'a> {
             .unwrap_or(self.pos)
     }
 
+    /// The child elements called `name` (case-sensitive), in file order.
     pub fn children_named<'s>(&'s self, name: &'s str) -> impl Iterator<Item = &'s Element<'a>> {
         self.children.iter().filter(move |c| c.name == name)
     }
@@ -67,6 +82,7 @@ pub struct LineIndex<'a> {
 }
 
 impl<'a> LineIndex<'a> {
+    /// Indexes the line starts of `text`, the whole file.
     pub fn new(text: &'a str) -> Self {
         let mut line_starts = vec![0];
         for (i, b) in text.bytes().enumerate() {
@@ -77,6 +93,7 @@ impl<'a> LineIndex<'a> {
         LineIndex { text, line_starts }
     }
 
+    /// The 1-based line and character column of byte `offset` of the file.
     pub fn pos(&self, offset: usize) -> Pos {
         let line = match self.line_starts.binary_search(&offset) {
             Ok(i) => i,

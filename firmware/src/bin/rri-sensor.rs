@@ -28,7 +28,7 @@ use rri_firmware::layout::{self, DeviceEngine, DeviceProperties, RobotProperties
 use rri_firmware::net::{self, EmbassyClock, Monitor};
 use rri_firmware::network;
 use rri_firmware::sample::{Reading, SampleCell, SampleReader, SampleWriter};
-use rri_firmware::schema::ChannelProtocol;
+use rri_firmware::schema::Protocol;
 use rri_firmware::snapshot::{Published, Snapshot};
 use static_cell::{ConstStaticCell, StaticCell};
 
@@ -37,7 +37,7 @@ const ADDRESS: [u8; 4] = match layout::NETWORK_IPV4 {
     Some(ip) => ip,
     None => panic!("Description.xml's Network Address must be an IPv4 address for a board"),
 };
-const TCP: bool = matches!(layout::CHANNEL_PROTOCOL, ChannelProtocol::Tcp);
+const TCP: bool = matches!(layout::CHANNEL_PROTOCOL, Protocol::Tcp);
 /// TCP socket buffers, each way, for each of the two sockets (the served
 /// connection and the standby; M10): one message of either direction.
 const TCP_SOCKET: usize = if layout::MAX_RECEIVE_LEN > layout::MAX_SEND_LEN {

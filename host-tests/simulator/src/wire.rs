@@ -5,6 +5,7 @@
 
 use super::numbers::{g6, ts};
 use gsi_config::{Device, Field, Property, SimpleType, TypeRef};
+use rri_vocabulary::{parse_bool, FALSE, MAX_STRING_LEN, TRUE};
 use std::fmt::Write;
 
 /// One value to send.
@@ -38,7 +39,7 @@ fn escape(s: &str) -> String {
 
 fn scalar(device: &Device, ty: TypeRef, v: &Value) -> String {
     match v {
-        Value::Bool(b) => if *b { "TRUE" } else { "FALSE" }.into(),
+        Value::Bool(b) => String::from_utf8_lossy(if *b { TRUE } else { FALSE }).into(),
         Value::Real(x) => g6(*x),
         Value::Time(t) => ts(*t),
         Value::Str(s) => escape(s),
@@ -197,11 +198,9 @@ fn check_scalar(device: &Device, ty: TypeRef, text: &str, what: &str) -> Result<
         TypeRef::Simple(SimpleType::Real | SimpleType::Time) => {
             t.parse::<f64>().is_ok_and(f64::is_finite)
         }
-        TypeRef::Simple(SimpleType::Bool) => matches!(
-            t.to_ascii_lowercase().as_str(),
-            "true" | "false" | "1" | "0"
-        ),
-        TypeRef::Simple(SimpleType::String) => text.chars().count() <= 80 * 4,
+        TypeRef::Simple(SimpleType::Bool) => parse_bool(t.as_bytes()).is_some(),
+        // Escaped text: each of the 80 bytes may take a few more.
+        TypeRef::Simple(SimpleType::String) => text.chars().count() <= MAX_STRING_LEN * 4,
         TypeRef::Enum(e) => {
             let decoded = t
                 .replace("&amp;", "&")

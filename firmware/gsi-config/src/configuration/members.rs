@@ -4,8 +4,8 @@
 use super::{expect, read_alias, read_link, required_name, stray_text};
 use super::{Configuration, MAX_ARRAY_SIZE};
 use crate::diag::{Rule, Sink};
-use crate::model::{Enum, Field, Flag, Member, Property, SimpleType, TypeRef};
-use crate::names::{keyword, MAX_STRING_LEN};
+use crate::model::{Direction, Enum, Field, Member, Property, SimpleType, TypeRef};
+use crate::names::MAX_STRING_LEN;
 use crate::xml::Element;
 
 pub(super) fn read_enum(el: &Element<'_>, sink: &mut Sink<'_>) -> Option<Enum> {
@@ -247,16 +247,10 @@ pub(super) fn read_property(
     let ty = resolve_type(el, cfg, sink);
     let size = read_size(el, ty, sink);
     let link = read_link(el, sink);
-    let flag = match el.attr("Flag") {
-        None => Some(Flag::ReadWrite),
+    let direction = match el.attr("Flag") {
+        None => Some(Direction::default()),
         Some(a) => {
-            let table = [
-                ("None", Flag::None),
-                ("ReadOnly", Flag::ReadOnly),
-                ("WriteOnly", Flag::WriteOnly),
-                ("ReadWrite", Flag::ReadWrite),
-            ];
-            let f = keyword(&a.value, &table);
+            let f = Direction::from_flag(&a.value);
             if f.is_none() {
                 sink.error(
                     Rule::G3,
@@ -275,7 +269,7 @@ pub(super) fn read_property(
         name: name?,
         ty: ty?,
         size: size.ok()?,
-        flag: flag?,
+        direction: direction?,
         link,
         alias,
         pos: el.pos,

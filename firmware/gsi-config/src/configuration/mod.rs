@@ -16,12 +16,17 @@ pub const MAX_ARRAY_SIZE: u16 = 1000;
 
 /// Most fields in one record: the decoder tracks which fields a message
 /// carried in one 64-bit mask.
-pub const MAX_FIELDS: usize = 64;
+pub use rri_vocabulary::MAX_FIELDS;
 
+/// What Configuration.xml declares (G3), in file order. An entry that could
+/// not be read is left out; an error has then been reported.
 #[derive(Debug, Default)]
 pub struct Configuration {
+    /// `<Enums><Enum>`; [`crate::TypeRef::Enum`] indexes this list.
     pub enums: Vec<Enum>,
+    /// `<Records><Record>`; [`crate::TypeRef::Record`] indexes this list.
     pub records: Vec<Record>,
+    /// `<Properties><Property>`, names and wire names unique.
     pub properties: Vec<Property>,
 }
 
