@@ -24,18 +24,31 @@ pub fn tokenize(text: &str) -> Option<usize> {
 /// with `str::parse`, format with `write!("{:.3}")`.
 #[derive(Default)]
 pub struct Naive {
+    /// The root's `Id`, echoed in the reply (M8).
     pub id: u32,
+    /// The root's `Ts`, seconds (M1).
     pub ts: f64,
+    /// `RobMode`: the enum alias as received, unchecked.
     pub mode: heapless::String<16>,
+    /// `Ts_act`: feedback time, seconds.
     pub ts_act: f64,
+    /// `Ts_des`: predicted time, seconds.
     pub ts_des: f64,
+    /// `P_act`: feedback pose `X Y Z` (mm), `Rx Ry Rz` (deg) (M4, M5).
     pub p_act: [f32; 6],
+    /// `J_act`: feedback joints `J1..J6`, degrees.
     pub j_act: [f32; 6],
+    /// `P_des`: planned pose, as `p_act`.
     pub p_des: [f32; 6],
+    /// `J_des`: planned joints, degrees.
     pub j_des: [f32; 6],
+    /// `AppData`: `X1..X18`, also the values the reply sends back.
     pub app: [f32; 18],
 }
 
+/// Decodes a `RobData` message into `out` the naive way; `None` on any
+/// tokenizer or number error. Unknown names are skipped, fields not in the
+/// message keep their value.
 pub fn naive_decode(text: &str, out: &mut Naive) -> Option<()> {
     use xmlparser::{Token, Tokenizer};
     let mut current = "";
@@ -83,6 +96,8 @@ pub fn naive_decode(text: &str, out: &mut Naive) -> Option<()> {
     Some(())
 }
 
+/// Formats the `SensData` reply for `id` and `ts` with `app` as `AppData`
+/// into `out` via `core::fmt` (`{:.3}`); `None` if `out` is too small.
 pub fn naive_encode(
     id: u32,
     ts: f64,

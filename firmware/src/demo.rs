@@ -30,10 +30,13 @@ pub struct LowPass {
 }
 
 impl LowPass {
+    /// No reading yet; each new one weighs `alpha` (0..=1).
     pub const fn new(alpha: f32) -> Self {
         LowPass { alpha, state: None }
     }
 
+    /// Feeds reading `x`, returns the filtered value (the first reading
+    /// passes unchanged).
     pub fn update(&mut self, x: f32) -> f32 {
         let y = match self.state {
             None => x,
@@ -43,6 +46,7 @@ impl LowPass {
         y
     }
 
+    /// The filtered value so far; `None` before the first reading.
     pub fn value(&self) -> Option<f32> {
         self.state
     }
@@ -84,6 +88,8 @@ pub struct DemoApp<'a> {
 }
 
 impl<'a> DemoApp<'a> {
+    /// Reads distances (mm, `values[0]`) from `reader`, filtered with
+    /// `alpha` = 0.3.
     pub fn new(reader: SampleReader<'a, 1>) -> Self {
         DemoApp {
             reader,

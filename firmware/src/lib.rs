@@ -15,6 +15,7 @@
 //! sized by a generated constant.
 #![cfg_attr(not(test), no_std)]
 #![deny(unsafe_code)]
+#![warn(missing_docs)]
 // The cycle path must not panic on any input: no panicking index, no
 // unwrap/expect, no explicit panic. Enforced by clippy (CI runs it with
 // -D warnings); tests may use them.

@@ -13,7 +13,9 @@ use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
 /// own clock, at the moment of sampling).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Reading<const N: usize> {
+    /// The sensor's values, in the application's order and units.
     pub values: [f32; N],
+    /// When they were sampled, on the device clock (T2).
     pub time: Instant,
 }
 
@@ -76,6 +78,7 @@ impl<const N: usize> Default for SampleCell<N> {
 }
 
 impl<const N: usize> SampleCell<N> {
+    /// An empty cell, not split yet (`const`, for a `static`).
     pub const fn new() -> Self {
         SampleCell {
             slots: [const { Slot::new() }; 3],

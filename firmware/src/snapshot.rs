@@ -15,9 +15,13 @@ use critical_section::Mutex;
 /// What the watchers see of the cycle.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Snapshot {
+    /// The S2 state, for the status LED and the log.
     pub state: SensorState,
+    /// The S2 error code while the state is `ERROR`.
     pub error: Option<ErrorCode>,
+    /// The controller being answered (S4), if one spoke.
     pub peer: Option<Endpoint>,
+    /// Every counter, as of this turn.
     pub stats: Stats,
     /// Turns of the cycle loop (messages and polls): the watchdog is fed
     /// only while this moves.
@@ -50,6 +54,8 @@ impl Default for Published {
 }
 
 impl Published {
+    /// Holds an `UNDEFINED` snapshot until the first publish (`const`, for
+    /// a `static`).
     pub const fn new() -> Self {
         Published {
             latest: Mutex::new(Cell::new(Snapshot {
@@ -62,10 +68,12 @@ impl Published {
         }
     }
 
+    /// Replaces the copy (the cycle, after each turn).
     pub fn publish(&self, snapshot: &Snapshot) {
         critical_section::with(|cs| self.latest.borrow(cs).set(*snapshot));
     }
 
+    /// The last published copy; for any number of watchers.
     pub fn latest(&self) -> Snapshot {
         critical_section::with(|cs| self.latest.borrow(cs).get())
     }

@@ -3,7 +3,7 @@
 /// Longest RRI string (G5, M6). RAPID strings are 80 bytes on the
 /// controller (one byte per character there); the firmware holds UTF-8, so a
 /// longer text is cut at the last character boundary within 80 bytes.
-pub const MAX_STRING_LEN: usize = 80;
+pub use rri_vocabulary::MAX_STRING_LEN;
 
 /// An RRI `string`: at most 80 bytes of UTF-8, in a fixed buffer.
 pub type RriString = heapless::String<MAX_STRING_LEN>;
@@ -21,18 +21,22 @@ pub struct Time {
 }
 
 impl Time {
+    /// 0 s.
     pub const ZERO: Time = Time { micros: 0 };
 
+    /// `micros` microseconds.
     pub const fn from_micros(micros: i64) -> Time {
         Time { micros }
     }
 
+    /// `millis` milliseconds (saturating).
     pub const fn from_millis(millis: i64) -> Time {
         Time {
             micros: millis.saturating_mul(1000),
         }
     }
 
+    /// Exact, in microseconds.
     pub const fn as_micros(self) -> i64 {
         self.micros
     }
@@ -47,15 +51,22 @@ impl Time {
 /// roll-pitch-yaw in degrees. Travels as attributes `X Y Z Rx Ry Rz` (M4).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Frame {
+    /// `X`, mm.
     pub x: f32,
+    /// `Y`, mm.
     pub y: f32,
+    /// `Z`, mm.
     pub z: f32,
+    /// `Rx`, roll, degrees.
     pub rx: f32,
+    /// `Ry`, pitch, degrees.
     pub ry: f32,
+    /// `Rz`, yaw, degrees.
     pub rz: f32,
 }
 
 impl Frame {
+    /// Origin, no rotation.
     pub const ZERO: Frame = Frame {
         x: 0.0,
         y: 0.0,

@@ -28,6 +28,14 @@
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FramingError;
 
+impl core::fmt::Display for FramingError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("message longer than the receive buffer (M10)")
+    }
+}
+
+impl core::error::Error for FramingError {}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Mode {
     /// Character data (or whitespace between messages).
@@ -205,5 +213,20 @@ impl<const N: usize> Framer<N> {
         };
         self.mode = mode;
         done
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::FramingError;
+    use std::string::ToString;
+
+    #[test]
+    fn framing_error_names_its_rule() {
+        assert_eq!(
+            FramingError.to_string(),
+            "message longer than the receive buffer (M10)"
+        );
     }
 }

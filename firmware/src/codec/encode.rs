@@ -3,7 +3,7 @@
 //!
 //! The fixed parts (tags, attribute names, quotes) are byte strings
 //! precomputed by the build script; values are written by the fixed-decimal
-//! writers of [`super::number`], never by `core::fmt`. Output is compact (no
+//! writers of [`super::format`], never by `core::fmt`. Output is compact (no
 //! whitespace). With a buffer of the message's generated
 //! `MAX_ENCODED_LEN`, encoding cannot run out of space; a smaller buffer is
 //! an error, never an overrun.
@@ -12,6 +12,7 @@ use super::text::write_escaped;
 use super::writer::Writer;
 use crate::schema::{Body, FieldRef, Format, MessageCodec};
 use crate::value::{RriString, Time};
+use rri_vocabulary::{FALSE, TRUE};
 
 /// What encoding reported.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -25,6 +26,14 @@ pub struct Encoded {
 /// The buffer is smaller than the message (it must be `MAX_ENCODED_LEN`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BufferTooSmall;
+
+impl core::fmt::Display for BufferTooSmall {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("reply buffer smaller than the message's MAX_ENCODED_LEN")
+    }
+}
+
+impl core::error::Error for BufferTooSmall {}
 
 const FRAME_ATTRS: [&[u8]; 6] = [
     b" X=\"", b" Y=\"", b" Z=\"", b" Rx=\"", b" Ry=\"", b" Rz=\"",
@@ -49,7 +58,7 @@ impl Out<'_, '_> {
     }
 
     fn bool(&mut self, v: bool) {
-        self.w.bytes(if v { b"TRUE" } else { b"FALSE" });
+        self.w.bytes(if v { TRUE } else { FALSE });
     }
 
     fn time(&mut self, t: Time) {
@@ -193,4 +202,17 @@ pub fn encode<M: MessageCodec>(
         len: w.len(),
         non_finite,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::BufferTooSmall;
+
+    #[test]
+    fn buffer_too_small_says_what_the_buffer_must_hold() {
+        assert_eq!(
+            BufferTooSmall.to_string(),
+            "reply buffer smaller than the message's MAX_ENCODED_LEN"
+        );
+    }
 }

@@ -27,6 +27,8 @@ pub struct Config {
     /// `SiGetCyclic` subscriptions of other data); at most
     /// [`crate::properties::MAX_PROPERTIES`] entries are served.
     pub periodic: &'static [Periodic],
+    /// `RRI_REAL_DECIMALS`, `RRI_TIME_DECIMALS`: how sent numbers are
+    /// written (M5).
     pub format: Format,
 }
 
@@ -36,5 +38,6 @@ pub struct Config {
 pub struct Periodic {
     /// Index among the device's properties.
     pub property: usize,
+    /// Milliseconds between sends (0 = off).
     pub period_ms: u32,
 }

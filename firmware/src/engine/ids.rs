@@ -7,9 +7,17 @@ pub enum IdEvent {
     /// The first id seen (or the first after a reset).
     First,
     /// The next id (`last + 1`, wrapping from 4294967295 to 0).
-    Next { wrapped: bool },
+    Next {
+        /// The counter wrapped to reach it (counted, not an error).
+        wrapped: bool,
+    },
     /// Ahead by more than one: `lost` ids were skipped.
-    Gap { lost: u32, wrapped: bool },
+    Gap {
+        /// Ids skipped: messages presumed lost (S1 `MaxLost` compares this).
+        lost: u32,
+        /// The counter wrapped on the way.
+        wrapped: bool,
+    },
     /// The same id as the last one.
     Duplicate,
     /// An id older than the last one (arrived late).
@@ -25,6 +33,8 @@ pub struct IdTracker {
 }
 
 impl IdTracker {
+    /// Judges `id` against the newest so far; only a newer id becomes the
+    /// newest (a duplicate or late arrival leaves it).
     pub fn observe(&mut self, id: u32) -> IdEvent {
         let Some(last) = self.last else {
             self.last = Some(id);
@@ -54,6 +64,7 @@ impl IdTracker {
         self.last = None;
     }
 
+    /// The newest id seen; `None` before the first (or after a reset).
     pub fn last(&self) -> Option<u32> {
         self.last
     }

@@ -32,6 +32,8 @@ use stats::{add, bump};
 /// What the application sees each cycle besides the data.
 #[derive(Clone, Copy, Debug)]
 pub struct CycleInfo<'a> {
+    /// The S2 state as of this call (for an answer, after its Id
+    /// accounting).
     pub state: SensorState,
     /// Device time when the application is called.
     pub now: Instant,
@@ -44,6 +46,7 @@ pub struct CycleInfo<'a> {
     pub arrived: Option<usize>,
     /// The device property about to be sent (see `DeviceProperty`).
     pub sending: usize,
+    /// Every counter so far (this message's reply not yet counted).
     pub stats: &'a Stats,
 }
 
@@ -54,6 +57,8 @@ pub struct CycleInfo<'a> {
 /// the cycle: the engine never waits for anything else, and the sampling
 /// itself runs elsewhere (see [`crate::sample`]).
 pub trait Application<R, D> {
+    /// Fills `device` for the message about to go out, from `robot` and
+    /// `info`; whatever it leaves there is encoded as is.
     fn cycle(&mut self, robot: &R, device: &mut D, info: &CycleInfo<'_>);
 }
 
@@ -66,7 +71,12 @@ impl<R, D> Application<R, D> for () {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Outcome {
     /// Send the first `len` bytes of the buffer to `to`.
-    Reply { to: Endpoint, len: usize },
+    Reply {
+        /// The sender of the robot message (M8: the answer goes back).
+        to: Endpoint,
+        /// Bytes of the reply at the start of the buffer.
+        len: usize,
+    },
     /// No answer, for this (counted) reason.
     Dropped(DropReason),
 }
@@ -111,6 +121,8 @@ pub const STRANGER_INTERVAL_MS: u64 = 4;
 const SCHEDULES: usize = MAX_PROPERTIES + 1;
 
 impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
+    /// An engine in `UNDEFINED` (S2) until the transport calls
+    /// [`Engine::listening`], with no peer and every counter at zero.
     pub fn new(config: Config) -> Self {
         Engine {
             config,
@@ -130,10 +142,12 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
         }
     }
 
+    /// The build-time settings it runs with.
     pub fn config(&self) -> &Config {
         &self.config
     }
 
+    /// The current S2 state.
     pub fn state(&self) -> SensorState {
         self.state
     }
@@ -148,6 +162,7 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
         self.stats
     }
 
+    /// The controller being answered (S4); `None` until one spoke.
     pub fn peer(&self) -> Option<Endpoint> {
         self.peers.peer()
     }
@@ -234,7 +249,10 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
         out: &mut [u8],
     ) -> Outcome {
         bump(&mut self.stats.received);
-        match self.handle(app, clock, from, bytes, received, out) {
+        let answer = self
+            .handle(from, bytes, received)
+            .and_then(|send| self.respond(app, clock, send, out));
+        match answer {
             Ok(len) => {
                 bump(&mut self.stats.sent);
                 bump(&mut self.stats.answered);
@@ -250,15 +268,14 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
         }
     }
 
-    fn handle<A: Application<R, D>, C: Clock>(
+    /// One robot message up to the application's turn: peer check, decode,
+    /// Id accounting and supervision; what to answer it with (M8).
+    fn handle(
         &mut self,
-        app: &mut A,
-        clock: &C,
         from: Endpoint,
         bytes: &[u8],
         received: Instant,
-        out: &mut [u8],
-    ) -> Result<usize, DropReason> {
+    ) -> Result<Send, DropReason> {
         if !from.is_valid_source() {
             return Err(DropReason::InvalidSource);
         }
@@ -302,16 +319,16 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
             self.robot_ts = decoded.ts;
         }
         self.account(property, decoded.id);
-        let reply = Send {
+        Ok(Send {
             property: self.config.reply,
             id: decoded.id,
             arrived: Some(property),
-        };
-        self.respond(app, clock, reply, out)
+        })
     }
 
     /// The application's turn, then `send` (`Ts` now) into `out`: the
-    /// common tail of an answer and a periodic send.
+    /// common tail of an answer and a periodic send, and the only call
+    /// into the application.
     fn respond<A: Application<R, D>, C: Clock>(
         &mut self,
         app: &mut A,

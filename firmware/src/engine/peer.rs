@@ -7,11 +7,14 @@ use super::time::Instant;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Endpoint {
+    /// IPv4 address, most significant byte first.
     pub ip: [u8; 4],
+    /// UDP or TCP port.
     pub port: u16,
 }
 
 impl Endpoint {
+    /// `ip:port`.
     pub const fn new(ip: [u8; 4], port: u16) -> Self {
         Endpoint { ip, port }
     }
@@ -29,6 +32,7 @@ impl Endpoint {
 /// A pinned controller (`RRI_CONTROLLER=ip[:port]`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Pinned {
+    /// The only address ever admitted (S4).
     pub ip: [u8; 4],
     /// Where periodic sends go before the controller has spoken; its own
     /// messages then tell the port.
@@ -50,6 +54,7 @@ pub enum Admit {
 /// What [`PeerFilter::accept`] changed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PeerChange {
+    /// The peer again, from the same port.
     None,
     /// The first peer.
     Locked,
@@ -72,6 +77,8 @@ pub struct PeerFilter {
 }
 
 impl PeerFilter {
+    /// No peer yet; `pinned` restricts it to one address, `timeout_ms` is
+    /// the S1 `TimeOut` after which another address may take over (S4).
     pub fn new(pinned: Option<Pinned>, timeout_ms: u32) -> Self {
         PeerFilter {
             pinned,
@@ -81,6 +88,8 @@ impl PeerFilter {
         }
     }
 
+    /// The controller being answered; `None` until a valid message
+    /// arrived.
     pub fn peer(&self) -> Option<Endpoint> {
         self.peer
     }

@@ -27,7 +27,18 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
             bump(&mut self.stats.timeouts);
             self.set_state(SensorState::Error, Some(ErrorCode::Communication));
         }
-        self.periodic(app, clock, now, out)
+        let (to, send) = self.periodic(now)?;
+        match self.respond(app, clock, send, out) {
+            Ok(len) => {
+                bump(&mut self.stats.sent);
+                bump(&mut self.stats.periodic_sent);
+                Some((to, len))
+            }
+            Err(reason) => {
+                self.stats.count_drop(reason);
+                None
+            }
+        }
     }
 
     /// Schedule `slot` (device property `property` every `period_ms`, 0 =
@@ -54,13 +65,9 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
         }
     }
 
-    fn periodic<A: Application<R, D>, C: Clock>(
-        &mut self,
-        app: &mut A,
-        clock: &C,
-        now: Instant,
-        out: &mut [u8],
-    ) -> Option<(Endpoint, usize)> {
+    /// The periodic send that is due at `now`, if any, and where it goes:
+    /// advances its schedule and the device's own Id sequence.
+    fn periodic(&mut self, now: Instant) -> Option<(Endpoint, Send)> {
         if matches!(self.state, SensorState::Undefined | SensorState::Closed) {
             return None;
         }
@@ -92,16 +99,6 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
             id: self.own_id,
             arrived: None,
         };
-        match self.respond(app, clock, send, out) {
-            Ok(len) => {
-                bump(&mut self.stats.sent);
-                bump(&mut self.stats.periodic_sent);
-                Some((to, len))
-            }
-            Err(reason) => {
-                self.stats.count_drop(reason);
-                None
-            }
-        }
+        Some((to, send))
     }
 }

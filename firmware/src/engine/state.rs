@@ -29,6 +29,7 @@ impl SensorState {
         }
     }
 
+    /// RAPID's name without the `STATE_` prefix, for logs.
     pub const fn name(self) -> &'static str {
         match self {
             SensorState::Error => "ERROR",
@@ -52,6 +53,7 @@ pub enum ErrorCode {
 }
 
 impl ErrorCode {
+    /// The number the controller reports (S2).
     pub const fn code(self) -> u32 {
         match self {
             ErrorCode::InitFailed => 112_600,

@@ -9,9 +9,13 @@ use crate::codec::DecodeErrorKind;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Histogram {
+    /// Latencies per bucket (see [`Histogram::bucket_limit_us`]).
     pub buckets: [u32; Histogram::BUCKETS],
+    /// Latencies recorded.
     pub count: u32,
+    /// Shortest, µs; `u32::MAX` while `count` is 0.
     pub min_us: u32,
+    /// Longest, µs.
     pub max_us: u32,
     /// Sum of all latencies, for the mean.
     pub total_us: u64,
@@ -36,6 +40,8 @@ impl Histogram {
     /// 0 µs, <2, <4, … <2^15 µs (32.8 ms), and above.
     pub const BUCKETS: usize = 17;
 
+    /// Counts one latency of `micros` µs (`min_us` and `max_us` saturate at
+    /// `u32::MAX`; `total_us` takes it whole).
     pub fn record(&mut self, micros: u64) {
         let us = u32::try_from(micros).unwrap_or(u32::MAX);
         let bucket = (u32::BITS - us.leading_zeros()) as usize;
@@ -78,6 +84,21 @@ pub enum DropReason {
     Encode,
 }
 
+impl core::fmt::Display for DropReason {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let text = match self {
+            Self::ForeignSource => "source is not the controller (S4)",
+            Self::InvalidSource => "source can be no controller: port 0 or not unicast (S4)",
+            Self::Throttled => "source other than the peer, throttled to one decode per cycle (S4)",
+            Self::Decode(kind) => return core::fmt::Display::fmt(kind, f),
+            Self::Encode => "reply larger than the send buffer",
+        };
+        f.write_str(text)
+    }
+}
+
+impl core::error::Error for DropReason {}
+
 /// Every counter of the engine. Counters saturate instead of wrapping.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -90,20 +111,25 @@ pub struct Stats {
     pub answered: u32,
     /// Periodic sends of one-way streams.
     pub periodic_sent: u32,
+    /// Not from the controller ([`DropReason::ForeignSource`], S4).
     pub dropped_foreign: u32,
     /// From port 0 or a non-unicast address ([`DropReason::InvalidSource`]).
     pub dropped_invalid_source: u32,
     /// Not the peer, within one cycle of the last such source decoded
     /// ([`DropReason::Throttled`]).
     pub dropped_throttled: u32,
+    /// Rejected by the decoder, all kinds ([`DropReason::Decode`]).
     pub dropped_decode: u32,
+    /// Replies that did not fit the send buffer ([`DropReason::Encode`]).
     pub dropped_encode: u32,
     /// Per [`DecodeErrorKind`], in the order of `DecodeErrorKind::ALL`.
     pub decode_errors: [u32; DecodeErrorKind::ALL.len()],
     /// S3: ids skipped (lost messages); a message that arrives late
     /// (reordered) fills its gap and is taken off again.
     pub lost: u32,
+    /// S3: the same Id as the last one (answered all the same).
     pub duplicates: u32,
+    /// S3: an Id older than the newest (arrived late; answered).
     pub reordered: u32,
     /// The id counter wrapped from 4294967295 to 0.
     pub id_wraps: u32,
@@ -117,14 +143,24 @@ pub struct Stats {
     pub peer_takeovers: u32,
     /// The peer's source port changed (a controller that reconnected).
     pub port_takeovers: u32,
+    /// S2 transitions, a change of error code included.
     pub state_changes: u32,
-    /// M2 tolerances, summed over all messages.
+    /// M2 tolerances, summed over all messages (see [`crate::codec::Tally`]):
+    /// unknown child elements, skipped.
     pub unknown_elements: u32,
+    /// Unknown attributes, skipped (M2).
     pub unknown_attributes: u32,
+    /// Fields absent from a message, previous value kept (M2).
     pub missing_fields: u32,
+    /// Attributes absent from a frame, joints or array field, previous
+    /// value kept (M4).
     pub missing_values: u32,
+    /// Fields in the wrong shape (text for attributes or the other way
+    /// round, or empty), previous value kept.
     pub shape_mismatches: u32,
+    /// Received strings cut at 80 bytes (M6).
     pub truncated_strings: u32,
+    /// Non-whitespace text between a record's fields, skipped.
     pub stray_text: u32,
     /// M5: non-finite reals sent as zero.
     pub non_finite: u32,
@@ -139,6 +175,8 @@ pub struct Stats {
     /// incomplete message held longer than `TimeOut`, or silence for
     /// `TimeOut` while another connection waited.
     pub stalled_closed: u32,
+    /// Receive → reply-ready time of every answer (periodic sends are not
+    /// timed).
     pub latency: Histogram,
 }
 
@@ -257,5 +295,17 @@ mod tests {
         for (i, k) in DecodeErrorKind::ALL.iter().enumerate() {
             assert_eq!(k.index(), i);
         }
+    }
+
+    #[test]
+    fn drop_reasons_say_why_and_which_rule() {
+        assert_eq!(
+            DropReason::InvalidSource.to_string(),
+            "source can be no controller: port 0 or not unicast (S4)"
+        );
+        assert_eq!(
+            DropReason::Decode(DecodeErrorKind::InvalidBool).to_string(),
+            DecodeErrorKind::InvalidBool.to_string()
+        );
     }
 }

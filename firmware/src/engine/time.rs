@@ -10,14 +10,17 @@ use crate::value::Time;
 pub struct Instant(pub u64);
 
 impl Instant {
+    /// `us` microseconds since boot.
     pub const fn from_micros(us: u64) -> Self {
         Instant(us)
     }
 
+    /// `ms` milliseconds since boot (saturating).
     pub const fn from_millis(ms: u64) -> Self {
         Instant(ms.saturating_mul(1000))
     }
 
+    /// Microseconds since boot.
     pub const fn as_micros(self) -> u64 {
         self.0
     }
@@ -36,5 +39,7 @@ impl Instant {
 /// The device clock. Boards implement it over their timer; tests use a
 /// fake one they move by hand.
 pub trait Clock {
+    /// The current device time: the replies' `Ts` (M8), the `TimeOut`
+    /// supervision (S1) and the latency figures.
     fn now(&self) -> Instant;
 }

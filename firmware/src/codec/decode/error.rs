@@ -9,6 +9,7 @@ use crate::value::Time;
 pub enum DecodeErrorKind {
     /// Longer than the message's compile-time `MAX_RECEIVE_LEN`.
     TooLong,
+    /// Not valid UTF-8; the offset is where the valid prefix ends.
     NotUtf8,
     /// Any DOCTYPE/DTD: never processed, so no entity expansion, ever.
     Doctype,
@@ -98,9 +99,50 @@ impl DecodeErrorKind {
 /// A rejected datagram: what and where (byte offset in the datagram).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct DecodeError {
+    /// What was wrong; counted per kind in the statistics.
     pub kind: DecodeErrorKind,
+    /// Byte offset in the datagram where it was found (for `TooLong`, the
+    /// limit that was passed).
     pub offset: usize,
 }
+
+impl core::fmt::Display for DecodeErrorKind {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::TooLong => "message longer than the receive buffer",
+            Self::NotUtf8 => "message is not valid UTF-8",
+            Self::Doctype => "document type declaration refused (never processed)",
+            Self::Malformed => "message is not well-formed XML (M1)",
+            Self::WrongRoot => "root element is not the expected property (M1)",
+            Self::MissingId => "root element has no Id attribute (M1, M8)",
+            Self::InvalidId => "invalid Id: not an unsigned 32-bit decimal (S3)",
+            Self::InvalidTs => "invalid Ts: not a decimal number of seconds (M1)",
+            Self::TooDeep => "element nested deeper than root and field (M2)",
+            Self::Truncated => "message ends before its root element does",
+            Self::TrailingGarbage => "content after the root element (M1)",
+            Self::MismatchedTag => "end tag does not close the open element",
+            Self::InvalidNumber => "real is not a decimal number (M5)",
+            Self::NumberOutOfRange => "number beyond the range of its type (M5)",
+            Self::NumberTooLong => "number text too long to read (M5)",
+            Self::InvalidTime => "time is not a decimal number of seconds in range (M5)",
+            Self::InvalidBool => "bool is not true, false, 1 or 0 (M7)",
+            Self::UnknownEnumMember => "enum value is no member's alias (G3)",
+            Self::BadReference => "undefined entity or character reference (M6)",
+            Self::Duplicate => "field, Id or Ts given twice",
+            Self::TooManyExtras => "too many items outside the layout (M2)",
+        })
+    }
+}
+
+impl core::error::Error for DecodeErrorKind {}
+
+impl core::fmt::Display for DecodeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "{} at byte {}", self.kind, self.offset)
+    }
+}
+
+impl core::error::Error for DecodeError {}
 
 /// What was tolerated in one message (M2 decisions), for the statistics.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -130,6 +172,7 @@ pub struct Decoded {
     pub id: u32,
     /// The robot's timestamp; `None` when the message had no `Ts`.
     pub ts: Option<Time>,
+    /// What was skipped or kept from before on the way (M2).
     pub tally: Tally,
 }
 
@@ -139,4 +182,22 @@ pub(super) fn err(kind: DecodeErrorKind, offset: usize) -> DecodeError {
 
 pub(super) fn bump(counter: &mut u16) {
     *counter = counter.saturating_add(1);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn display_names_the_kind_and_the_offset() {
+        let e = err(DecodeErrorKind::InvalidBool, 42);
+        assert_eq!(
+            e.to_string(),
+            "bool is not true, false, 1 or 0 (M7) at byte 42"
+        );
+        assert_eq!(
+            DecodeErrorKind::WrongRoot.to_string(),
+            "root element is not the expected property (M1)"
+        );
+    }
 }
