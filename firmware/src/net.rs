@@ -90,6 +90,10 @@ impl<const RX: usize, const TX: usize> Default for UdpBuffers<RX, TX> {
 }
 
 impl<const RX: usize, const TX: usize> UdpBuffers<RX, TX> {
+    /// All buffers zeroed; `const`, so it can initialise a `static`. Does
+    /// not compile when the layout's longest messages do not fit smoltcp's
+    /// IPv4 reassembly or fragmentation buffer (then raise
+    /// `SMOLTCP_REASSEMBLY_BUFFER_SIZE` / `SMOLTCP_FRAGMENTATION_BUFFER_SIZE`).
     pub const fn new() -> Self {
         // A robot datagram longer than one Ethernet frame arrives in IPv4
         // fragments and a long reply leaves in fragments: smoltcp's buffers
@@ -125,6 +129,26 @@ fn endpoint(e: IpEndpoint) -> Option<Endpoint> {
 
 fn ip_endpoint(e: Endpoint) -> IpEndpoint {
     IpEndpoint::new(IpAddress::v4(e.ip[0], e.ip[1], e.ip[2], e.ip[3]), e.port)
+}
+
+/// Sends the message the engine wrote to the first `len` bytes of `reply`
+/// to `to`; a send that fails is counted ([`Engine::send_failed`]). A
+/// `len` beyond the buffer (the engine never returns one) is counted the
+/// same way, never sent as an empty or cut datagram.
+async fn send_datagram<R: RobotSet, D: DeviceSet>(
+    socket: &UdpSocket<'_>,
+    engine: &mut Engine<R, D>,
+    reply: &[u8],
+    to: Endpoint,
+    len: usize,
+) {
+    let sent = match reply.get(..len) {
+        Some(bytes) => socket.send_to(bytes, ip_endpoint(to)).await.is_ok(),
+        None => false,
+    };
+    if !sent {
+        engine.send_failed();
+    }
 }
 
 /// Runs the UDP cycle on `port` forever: receive → engine → reply, and the
@@ -176,29 +200,25 @@ where
                 let Some(from) = endpoint(meta.endpoint) else {
                     continue;
                 };
-                let bytes = datagram.get(..len).unwrap_or(&[]);
+                // The socket copied `len` bytes into `datagram`; a length
+                // beyond it (never returned) is counted as a datagram
+                // too long for the buffer, not handed on empty or cut.
+                let Some(bytes) = datagram.get(..len) else {
+                    engine.datagram_too_long();
+                    continue;
+                };
                 let before = monitor.count();
                 let outcome = engine.on_message(app, clock, from, bytes, received, reply);
                 let after = monitor.count();
                 if let Outcome::Reply { to, len } = outcome {
-                    let sent = socket
-                        .send_to(reply.get(..len).unwrap_or(&[]), ip_endpoint(to))
-                        .await;
-                    if sent.is_err() {
-                        engine.send_failed();
-                    }
+                    send_datagram(&socket, engine, reply, to, len).await;
                 }
                 monitor.message(engine, len, &outcome, (before, after));
             }
             Either::First(Err(RecvError::Truncated)) => engine.datagram_too_long(),
             Either::Second(()) => {
                 if let Some((to, len)) = engine.poll(app, clock, reply) {
-                    let sent = socket
-                        .send_to(reply.get(..len).unwrap_or(&[]), ip_endpoint(to))
-                        .await;
-                    if sent.is_err() {
-                        engine.send_failed();
-                    }
+                    send_datagram(&socket, engine, reply, to, len).await;
                 }
                 monitor.polled(engine);
             }
@@ -225,6 +245,9 @@ impl<const SOCK: usize, const RX: usize, const TX: usize> Default for TcpBuffers
 }
 
 impl<const SOCK: usize, const RX: usize, const TX: usize> TcpBuffers<SOCK, RX, TX> {
+    /// All buffers zeroed and the framer empty; `const`, so it can
+    /// initialise a `static`. Does not compile when a socket's `SOCK`
+    /// bytes cannot hold a whole reply (`TX`).
     pub const fn new() -> Self {
         const {
             assert!(
@@ -242,26 +265,57 @@ impl<const SOCK: usize, const RX: usize, const TX: usize> TcpBuffers<SOCK, RX, T
     }
 }
 
-/// Writes all of `bytes`; `false` when the connection broke.
+/// Writes all of `bytes`; `false` when the connection broke. A write of
+/// nothing is taken for a broken connection, and so would a count beyond
+/// the bytes given (never returned), rather than an empty remainder.
 async fn write_all(socket: &mut TcpSocket<'_>, mut bytes: &[u8]) -> bool {
     while !bytes.is_empty() {
-        match socket.write(bytes).await {
-            Ok(0) | Err(_) => return false,
-            Ok(n) => bytes = bytes.get(n..).unwrap_or(&[]),
+        let written = socket.write(bytes).await.ok().filter(|&n| n > 0);
+        match written.and_then(|n| bytes.get(n..)) {
+            Some(rest) => bytes = rest,
+            None => return false,
         }
     }
     true
 }
 
-/// Writes a reply within `limit`; `false` when the connection broke or the
-/// peer stopped reading for that long (its window and our send buffer
-/// full): a send error, and the connection is closed, so a controller that
-/// stops reading cannot block the device.
-async fn write_reply(socket: &mut TcpSocket<'_>, bytes: &[u8], limit: Duration) -> bool {
-    matches!(
-        embassy_time::with_timeout(limit, write_all(socket, bytes)).await,
-        Ok(true)
-    )
+/// Writes the reply the engine wrote to the first `len` bytes of `reply`
+/// within `limit`. `false`, counted as a send error
+/// ([`Engine::send_failed`]), when the connection broke or the peer
+/// stopped reading for that long (its window and our send buffer full);
+/// the caller then closes the connection, so a controller that stops
+/// reading cannot block the device. A `len` beyond the buffer (the engine
+/// never returns one) is counted the same way, never written cut.
+async fn send_reply<R: RobotSet, D: DeviceSet>(
+    socket: &mut TcpSocket<'_>,
+    engine: &mut Engine<R, D>,
+    reply: &[u8],
+    len: usize,
+    limit: Duration,
+) -> bool {
+    let sent = match reply.get(..len) {
+        Some(bytes) => matches!(
+            embassy_time::with_timeout(limit, write_all(socket, bytes)).await,
+            Ok(true)
+        ),
+        None => false,
+    };
+    if !sent {
+        engine.send_failed();
+    }
+    sent
+}
+
+/// Feeds `rest` to the framer (M10): the bytes it did not use and the
+/// message it completed, if any; `None` on a framing error. (`feed` never
+/// uses more bytes than it was given; a count beyond them would be a
+/// framing error too, never an empty remainder.)
+fn feed<'f, 'r, const N: usize>(
+    framer: &'f mut Framer<N>,
+    rest: &'r [u8],
+) -> Option<(&'r [u8], Option<&'f [u8]>)> {
+    let (used, message) = framer.feed(rest).ok()?;
+    Some((rest.get(used..)?, message))
 }
 
 /// Puts a closed socket in listening mode without waiting for a
@@ -358,13 +412,18 @@ where
                 Either::First(Ok(n)) => {
                     let received = clock.now();
                     let mut completed = false;
-                    let mut rest = chunk.get(..n).unwrap_or(&[]);
+                    // `read` filled the first `n` bytes; a count beyond the
+                    // chunk (never returned) breaks the connection like a
+                    // read error, instead of reading as no bytes.
+                    let Some(mut rest) = chunk.get(..n) else {
+                        break 'connection;
+                    };
                     while !rest.is_empty() {
-                        let Ok((used, message)) = framer.feed(rest) else {
+                        let Some((unused, message)) = feed(framer, rest) else {
                             engine.framing_error();
                             break 'connection;
                         };
-                        rest = rest.get(used..).unwrap_or(&[]);
+                        rest = unused;
                         let Some(message) = message else { continue };
                         completed = true;
                         let bytes = message.len();
@@ -372,9 +431,7 @@ where
                         let outcome = engine.on_message(app, clock, from, message, received, reply);
                         let after = monitor.count();
                         if let Outcome::Reply { len, .. } = outcome {
-                            let reply = reply.get(..len).unwrap_or(&[]);
-                            if !write_reply(served, reply, write_limit).await {
-                                engine.send_failed();
+                            if !send_reply(served, engine, reply, len, write_limit).await {
                                 break 'connection;
                             }
                         }
@@ -384,9 +441,7 @@ where
                 }
                 Either::Second(()) => {
                     if let Some((_, len)) = engine.poll(app, clock, reply) {
-                        let reply = reply.get(..len).unwrap_or(&[]);
-                        if !write_reply(served, reply, write_limit).await {
-                            engine.send_failed();
+                        if !send_reply(served, engine, reply, len, write_limit).await {
                             break 'connection;
                         }
                     }

@@ -182,6 +182,7 @@ impl Big {
             1_220_703_125,
         ];
         while k > 0 {
+            // `step <= 13`: always in the table (the fallback is dead).
             let step = k.min(13);
             self.mul_add(POW5.get(step as usize).copied().unwrap_or(1), 0);
             k -= step;
@@ -289,6 +290,7 @@ fn approximate(c: &Cut) -> f64 {
     // Within the magnitude bounds, |e| < 190: at most nine steps.
     let mut e = c.exponent + (c.kept - n) as i32;
     while e != 0 {
+        // `step <= 22`: always in the table (the fallback is dead).
         let step = e.unsigned_abs().min(22);
         let p = POW10.get(step as usize).copied().unwrap_or(1.0);
         if e > 0 {

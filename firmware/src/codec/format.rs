@@ -7,10 +7,11 @@
 use super::writer::Writer;
 use crate::value::Time;
 
-/// Most decimals the fixed-point writers support (time is held in µs).
-pub const MAX_DECIMALS: u8 = 6;
+/// Most decimals the fixed-point writers support (time is held in µs);
+/// `POW10` below has one entry per decimal.
+pub use rri_vocabulary::MAX_DECIMALS;
 
-const POW10: [u64; 7] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
+const POW10: [u64; MAX_DECIMALS as usize + 1] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
 
 /// Decimal digits of `v` (at least one).
 fn digit_count(v: u64) -> usize {
@@ -36,8 +37,13 @@ fn pow10(n: u8) -> u64 {
 /// 39 digits of `f32::MAX` and a sign, or a u64, a point, 6 decimals and a
 /// sign. A push past the front is dropped (cannot happen with these sizes,
 /// and is never a panic).
+///
+/// Invariant: `start <= buf.len()`. It starts at the end, and `push` only
+/// moves it down onto a slot that exists; `as_slice` is the one place that
+/// relies on it.
 struct Backward {
     buf: [u8; 48],
+    /// Where the digits begin; they run to the end of `buf`.
     start: usize,
 }
 
@@ -67,10 +73,7 @@ impl Backward {
     /// Two digits of `v < 100`.
     #[inline]
     fn pair(&mut self, v: u64) {
-        let [hi, lo] = DIGIT_PAIRS
-            .get((v % 100) as usize)
-            .copied()
-            .unwrap_or([b'0'; 2]);
+        let [hi, lo] = digit_pair(v % 100);
         self.push(lo);
         self.push(hi);
     }
@@ -89,6 +92,8 @@ impl Backward {
     }
 
     fn as_slice(&self) -> &[u8] {
+        // `start <= buf.len()` (the type's invariant): the empty fallback is
+        // never taken; it only keeps a panic path out of the image.
         self.buf.get(self.start..).unwrap_or(&[])
     }
 }
@@ -104,6 +109,15 @@ const DIGIT_PAIRS: [[u8; 2]; 100] = {
     }
     t
 };
+
+/// The two digits of `v`, for `v < 100`: every caller passes a remainder
+/// of 100 or a value it has just found below 100, so the lookup always
+/// hits (the optimizer drops the check) and the `"00"` fallback is never
+/// written. The one lookup of [`DIGIT_PAIRS`].
+#[inline(always)]
+fn digit_pair(v: u64) -> [u8; 2] {
+    DIGIT_PAIRS.get(v as usize).copied().unwrap_or([b'0'; 2])
+}
 
 impl Writer<'_> {
     /// Decimal digits of `v`.
@@ -210,7 +224,7 @@ impl Writer<'_> {
         }
         macro_rules! pair {
             ($v:expr) => {
-                let [hi, lo] = DIGIT_PAIRS.get($v as usize).copied().unwrap_or([b'0'; 2]);
+                let [hi, lo] = digit_pair($v);
                 put!(lo);
                 put!(hi);
             };

@@ -19,6 +19,18 @@ pub enum NumberError {
     TooLong,
 }
 
+impl core::fmt::Display for NumberError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Syntax => "not a decimal number (M5)",
+            Self::OutOfRange => "number beyond the range of its type (M5)",
+            Self::TooLong => "number text too long to read (M5)",
+        })
+    }
+}
+
+impl core::error::Error for NumberError {}
+
 /// The longest number text accepted (whitespace around it aside): what
 /// the generated `MAX_RECEIVE_LEN` allows each value (`sizes.rs` in
 /// gsi-codegen), far more than the 9 significant digits of an `f32` a
@@ -28,10 +40,14 @@ pub const MAX_NUMBER_LEN: usize = 48;
 
 /// Strips XML whitespace (space, tab, CR, LF) from both ends.
 pub fn trim(s: &[u8]) -> &[u8] {
-    let is_ws = |b: &u8| matches!(b, b' ' | b'\t' | b'\r' | b'\n');
-    let start = s.iter().position(|b| !is_ws(b)).unwrap_or(s.len());
-    let end = s.iter().rposition(|b| !is_ws(b)).map_or(start, |e| e + 1);
-    s.get(start..end).unwrap_or(&[])
+    let mut t = s;
+    while let [b' ' | b'\t' | b'\r' | b'\n', rest @ ..] = t {
+        t = rest;
+    }
+    while let [rest @ .., b' ' | b'\t' | b'\r' | b'\n'] = t {
+        t = rest;
+    }
+    t
 }
 
 /// Splits off a leading sign: whether it was `-`, and the rest.
@@ -129,19 +145,24 @@ fn split_decimal(t: &[u8]) -> Option<Decimal> {
     if i == usize::from(point) {
         return None;
     }
-    if let Some(b'e' | b'E') = rest.get(i) {
-        let (negative_exp, exp) = sign(rest.get(i + 1..).unwrap_or(&[]));
-        if exp.is_empty() {
-            return None;
+    // After the digits: an exponent, or the end. (`i` stops at the end at
+    // the latest, so `get` always succeeds; a `None` would be refused like
+    // trailing bytes, not taken as an empty exponent.)
+    match rest.get(i..) {
+        Some([b'e' | b'E', exp_text @ ..]) => {
+            let (negative_exp, exp) = sign(exp_text);
+            if exp.is_empty() {
+                return None;
+            }
+            let mut e: i32 = 0;
+            for &b in exp {
+                // Clamp: anything this large is out of range anyway.
+                e = (e * 10 + i32::from(digit(b)?)).min(100_000);
+            }
+            exponent += if negative_exp { -e } else { e };
         }
-        let mut e: i32 = 0;
-        for &b in exp {
-            // Clamp: anything this large is out of range anyway.
-            e = (e * 10 + i32::from(digit(b)?)).min(100_000);
-        }
-        exponent += if negative_exp { -e } else { e };
-    } else if i != rest.len() {
-        return None;
+        Some([]) => {}
+        _ => return None,
     }
     Some(Decimal {
         negative,
@@ -373,6 +394,21 @@ mod tests {
         assert_eq!(t(b"9223372036854.775808"), Err(NumberError::OutOfRange));
         assert_eq!(t(b"x"), Err(NumberError::Syntax));
         assert_eq!(t(b"inf"), Err(NumberError::Syntax));
+    }
+
+    #[test]
+    fn number_errors_display_a_lowercase_message_citing_m5() {
+        assert_eq!(NumberError::Syntax.to_string(), "not a decimal number (M5)");
+        assert_eq!(
+            NumberError::OutOfRange.to_string(),
+            "number beyond the range of its type (M5)"
+        );
+        assert_eq!(
+            NumberError::TooLong.to_string(),
+            "number text too long to read (M5)"
+        );
+        let e: &dyn core::error::Error = &NumberError::Syntax;
+        assert!(e.source().is_none());
     }
 
     #[test]

@@ -12,10 +12,13 @@ use crate::value::{RriString, MAX_STRING_LEN};
 /// all and become `?`. No replacement is longer than 6 bytes, the bound the
 /// build script sizes buffers with.
 pub fn write_escaped(w: &mut Writer<'_>, s: &str) {
-    let bytes = s.as_bytes();
-    let mut start = 0;
-    for (i, &b) in bytes.iter().enumerate() {
-        let entity: &[u8] = match b {
+    // `rest` is what is left to write; its first `i` bytes need no escape.
+    // Splitting at `i` is the loop's own bound, so every slice written
+    // comes from a split, none from an index that could be off.
+    let mut rest = s.as_bytes();
+    let mut i = 0;
+    while let Some((plain, [b, after @ ..])) = rest.split_at_checked(i) {
+        let entity: &[u8] = match *b {
             b'&' => b"&amp;",
             b'<' => b"&lt;",
             b'>' => b"&gt;",
@@ -25,13 +28,17 @@ pub fn write_escaped(w: &mut Writer<'_>, s: &str) {
             b'\n' => b"&#10;",
             b'\r' => b"&#13;",
             0..=0x1f => b"?",
-            _ => continue,
+            _ => {
+                i += 1;
+                continue;
+            }
         };
-        w.bytes(bytes.get(start..i).unwrap_or(&[]));
+        w.bytes(plain);
         w.bytes(entity);
-        start = i + 1;
+        rest = after;
+        i = 0;
     }
-    w.bytes(bytes.get(start..).unwrap_or(&[]));
+    w.bytes(rest);
 }
 
 /// A reference that is not one of the five predefined entities or a valid
@@ -41,6 +48,14 @@ pub struct BadReference {
     /// Byte offset of the `&` within the text.
     pub at: usize,
 }
+
+impl core::fmt::Display for BadReference {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("undefined entity or character reference (M6)")
+    }
+}
+
+impl core::error::Error for BadReference {}
 
 /// Longest reference we look at: `&#x10FFFF;` / `&#1114111;` are 10 bytes.
 const MAX_REFERENCE: usize = 10;
@@ -95,31 +110,40 @@ pub fn append_decoded(out: &mut RriString, raw: &str) -> Result<bool, BadReferen
             // Cannot fail: it fits.
             let _ = out.push_str(s);
         } else {
+            // The longest head that fits and ends on a character boundary
+            // (`get` is `None` inside a character). The empty head always
+            // is one, so the loop ends by `cut == 0` at the latest.
             let mut cut = room;
-            while !s.is_char_boundary(cut) {
+            let head = loop {
+                if let Some(head) = s.get(..cut) {
+                    break head;
+                }
                 cut -= 1;
-            }
-            let _ = out.push_str(s.get(..cut).unwrap_or(""));
+            };
+            let _ = out.push_str(head);
             truncated = true;
         }
     };
     let mut rest = raw;
+    // Where `rest` starts in `raw`, for the error's offset.
     let mut offset = 0;
-    while let Some(amp) = rest.find('&') {
-        push(out, rest.get(..amp).unwrap_or(""));
-        let after = rest.get(amp + 1..).unwrap_or("");
-        let end = after
-            .bytes()
-            .take(MAX_REFERENCE)
-            .position(|b| b == b';')
-            .ok_or(BadReference { at: offset + amp })?;
-        let c = reference(after.as_bytes().get(..end).unwrap_or(&[]))
-            .ok_or(BadReference { at: offset + amp })?;
+    while let Some((before, after)) = rest.split_once('&') {
+        push(out, before);
+        let bad = BadReference {
+            at: offset + before.len(),
+        };
+        // The first `;` ends the reference; it must come within the
+        // `MAX_REFERENCE` bytes after the `&` (a search past them only
+        // happens on the way to the error).
+        let (name, tail) = after
+            .split_once(';')
+            .filter(|(name, _)| name.len() < MAX_REFERENCE)
+            .ok_or(bad)?;
+        let c = reference(name.as_bytes()).ok_or(bad)?;
         let mut utf8 = [0u8; 4];
         push(out, c.encode_utf8(&mut utf8));
-        let consumed = amp + 1 + end + 1;
-        offset += consumed;
-        rest = rest.get(consumed..).unwrap_or("");
+        offset += before.len() + 1 + name.len() + 1;
+        rest = tail;
     }
     push(out, rest);
     Ok(truncated)
@@ -174,6 +198,17 @@ mod tests {
         );
         assert_eq!(append_decoded(&mut s, "x&amp"), Err(BadReference { at: 1 }));
         assert_eq!(append_decoded(&mut s, "&#;"), Err(BadReference { at: 0 }));
+    }
+
+    #[test]
+    fn a_bad_reference_displays_a_lowercase_message_citing_m6() {
+        let e = BadReference { at: 3 };
+        assert_eq!(
+            e.to_string(),
+            "undefined entity or character reference (M6)"
+        );
+        let e: &dyn core::error::Error = &e;
+        assert!(e.source().is_none());
     }
 
     #[test]

@@ -7,8 +7,13 @@
 /// not fit sets `overflow` and is dropped. Buffers are sized by the
 /// generated maxima, so in the firmware it never overflows; the flag makes
 /// sure a wrong size is an error, not memory corruption.
+///
+/// Invariant: `len <= buf.len()`. `len` starts at 0, and only `reserve`
+/// and [`Writer::byte`] advance it, each after finding in `buf` the bytes
+/// it counts. [`Writer::written`] is the one place that relies on it.
 pub struct Writer<'a> {
     buf: &'a mut [u8],
+    /// Bytes written; never more than `buf.len()` (see above).
     len: usize,
     overflow: bool,
 }
@@ -40,6 +45,8 @@ impl<'a> Writer<'a> {
 
     /// The bytes written so far.
     pub fn written(&self) -> &[u8] {
+        // `len <= buf.len()` (the type's invariant): the empty fallback is
+        // never taken; it only keeps a panic path out of the image.
         self.buf.get(..self.len).unwrap_or(&[])
     }
 
