@@ -85,16 +85,10 @@ pub(super) fn array_component(name: &[u8], len: usize) -> Option<usize> {
     (1..=len).contains(&n).then(|| n - 1)
 }
 
-/// M7: `true/false/1/0` in any case, surrounded by whitespace or not.
+/// M7: `true/false/1/0` in any case, surrounded by XML whitespace or not
+/// (the words themselves are `rri_vocabulary`'s).
 pub fn parse_bool(text: &[u8]) -> Option<bool> {
-    let t = trim(text);
-    if t.eq_ignore_ascii_case(b"true") || t == b"1" {
-        Some(true)
-    } else if t.eq_ignore_ascii_case(b"false") || t == b"0" {
-        Some(false)
-    } else {
-        None
-    }
+    rri_vocabulary::parse_bool(trim(text))
 }
 
 pub(super) fn real(text: &str, at: usize) -> Result<f32, DecodeError> {
@@ -122,6 +116,7 @@ pub(super) fn string(out: &mut RriString, raw: &str, at: usize) -> Result<bool, 
 
 /// Assigns one attribute of a multi-value slot. `Ok(false)`: the slot has
 /// no such attribute (an unknown attribute).
+#[inline(always)]
 pub(super) fn set_component(
     field: FieldMut<'_>,
     name: &[u8],

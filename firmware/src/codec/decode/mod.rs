@@ -17,19 +17,26 @@
 //!
 //! On an error the data may be partly updated (fields before the error);
 //! decode into a copy of the last good data when that matters.
+//!
+//! Three layers, each with its own tests: `events` turns tokens into the
+//! message's structure and checks it (root, `Id`/`Ts`, depth, tags); the
+//! [`Binder`] here maps those events to the generated record's slots and
+//! counts what the layout does not know; `bind` turns a slot's text and
+//! attributes into typed values. They are generic and inlined into one
+//! loop, so the layering costs no dispatch (`cargo codec-bench`).
 
 mod bind;
 mod error;
+mod events;
 
 pub use bind::parse_bool;
 pub use error::{DecodeError, DecodeErrorKind, Decoded, Tally, EXTRA_ITEMS};
 
-use super::number::{parse_time, parse_u32, trim};
-use crate::schema::{Body, MessageCodec};
-use crate::value::Time;
+use super::number::trim;
+use crate::schema::{Body, MessageCodec, MAX_FIELDS};
 use bind::{collect, components, finish_slot, set_component, Collected, Target};
 use error::{bump, err};
-use xmlparser::{ElementEnd, Token, Tokenizer};
+use events::{Header, Visitor};
 
 /// The datagram as text. Robot messages are ASCII; checking that a word at
 /// a time is several times cheaper than full UTF-8 validation, which only
@@ -46,233 +53,200 @@ fn utf8(bytes: &[u8]) -> Result<&str, core::str::Utf8Error> {
 
 /// Decodes one robot datagram of message `M` into `data` (in place, M2:
 /// fields absent from the message keep their values).
+///
+/// Two layers: [`events::walk`] checks the message's structure and tells
+/// the [`Binder`] each event; the binder maps them to the generated record.
 pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decoded, DecodeError> {
     use DecodeErrorKind as K;
     if bytes.len() > M::MAX_RECEIVE_LEN {
         return Err(err(K::TooLong, M::MAX_RECEIVE_LEN));
     }
     let text = utf8(bytes).map_err(|e| err(K::NotUtf8, e.valid_up_to()))?;
-    // M1: whitespace may precede the declaration; xmlparser does not allow
-    // it, so skip it and keep offsets relative to the datagram.
-    let body = text.trim_start_matches([' ', '\t', '\r', '\n']);
-    let base = text.len() - body.len();
+    let mut binder = Binder::<M>::new(data);
+    let Header { id, ts } = events::walk(text, M::WIRE_NAME, &mut binder)?;
+    Ok(Decoded {
+        id,
+        ts,
+        tally: binder.finish(),
+    })
+}
 
-    let value_body = M::BODY == Body::Value;
-    let mut depth: u8 = 0;
-    let mut done = false;
-    let mut in_start_tag = false;
-    let mut id: Option<u32> = None;
-    let mut ts: Option<Time> = None;
-    let mut target = Target::None;
-    // Prefix and name of the open child element (depth 2), for the
-    // end-tag check.
-    let mut child: (&str, &str) = ("", "");
-    let mut seen: u64 = 0;
-    let mut c = Collected::new();
-    let mut tally = Tally::default();
-    let mut last_end = base;
-    // Items the layout does not account for, and how many are allowed.
-    let mut extras = Extras {
-        count: 0,
-        limit: M::FIELDS.len().saturating_add(EXTRA_ITEMS),
-    };
+/// The binding layer's walk state: which field text and attributes go to,
+/// which fields were seen, and what the layout does not know (counted).
+struct Binder<'a, 'd, M: MessageCodec> {
+    data: &'d mut M::Data,
+    /// Where text and attributes go now.
+    target: Target,
+    /// One bit per field seen (duplicates are errors, M2).
+    seen: u64,
+    /// What the open slot has collected.
+    c: Collected<'a>,
+    tally: Tally,
+    /// Items the layout does not account for, and how many are allowed.
+    extras: Extras,
+}
 
-    if value_body {
-        target = Target::Slot(0);
+impl<'a, 'd, M: MessageCodec> Binder<'a, 'd, M> {
+    /// A value body's slot is the root itself; a record's opens per child.
+    const VALUE_BODY: bool = matches!(M::BODY, Body::Value);
+
+    #[inline(always)]
+    fn new(data: &'d mut M::Data) -> Self {
+        Binder {
+            data,
+            target: Self::root_target(),
+            seen: 0,
+            c: Collected::new(),
+            tally: Tally::default(),
+            extras: Extras {
+                count: 0,
+                limit: M::FIELDS.len().saturating_add(EXTRA_ITEMS),
+            },
+        }
     }
 
-    for token in Tokenizer::from(body) {
-        let token = token.map_err(|e| {
-            let kind = if done {
-                K::TrailingGarbage
-            } else if ends_early(&e) || unfinished_tail(body, last_end - base) {
-                // The tokenizer stopped because the input did.
-                K::Truncated
-            } else {
-                K::Malformed
+    /// Where the root's own text and attributes go.
+    #[inline(always)]
+    fn root_target() -> Target {
+        if Self::VALUE_BODY {
+            Target::Slot(0)
+        } else {
+            Target::None
+        }
+    }
+
+    /// The tally, with the record's fields the message did not carry (M2).
+    #[inline(always)]
+    fn finish(mut self) -> Tally {
+        if !Self::VALUE_BODY {
+            let n = M::FIELDS.len().min(MAX_FIELDS);
+            let missing = n as u32 - (self.seen & mask(n)).count_ones();
+            self.tally.missing_fields = self
+                .tally
+                .missing_fields
+                .saturating_add(u16::try_from(missing).unwrap_or(u16::MAX));
+        }
+        self.tally
+    }
+
+    /// The open slot `i` is complete: check and store what it collected.
+    #[inline(always)]
+    fn finish_slot(&mut self, i: usize) -> Result<(), DecodeError> {
+        match M::field_mut(self.data, i) {
+            Some(field) => finish_slot(field, &mut self.c, &mut self.tally),
+            None => Ok(()),
+        }
+    }
+}
+
+impl<'a, M: MessageCodec> Visitor<'a> for Binder<'a, '_, M> {
+    #[inline(always)]
+    fn child(&mut self, prefix: &'a str, name: &'a str, at: usize) -> Result<(), DecodeError> {
+        self.target = match (Self::VALUE_BODY, M::field_index(name.as_bytes())) {
+            (false, Some(i)) if prefix.is_empty() => {
+                let bit = 1u64.checked_shl(i as u32).unwrap_or(0);
+                if self.seen & bit != 0 {
+                    return Err(err(DecodeErrorKind::Duplicate, at));
+                }
+                self.seen |= bit;
+                self.c = Collected::new();
+                Target::Slot(i)
+            }
+            _ => {
+                bump(&mut self.tally.unknown_elements);
+                self.extras.add(at)?;
+                Target::None
+            }
+        };
+        Ok(())
+    }
+
+    #[inline(always)]
+    fn attr(
+        &mut self,
+        on_root: bool,
+        prefix: &'a str,
+        name: &'a str,
+        value: &'a str,
+        at: usize,
+    ) -> Result<(), DecodeError> {
+        // A record's values are in its children (M4), a value body's on
+        // the root.
+        if let (Target::Slot(i), true) = (self.target, on_root || !Self::VALUE_BODY) {
+            let known = match M::field_mut(self.data, i) {
+                Some(field) if prefix.is_empty() => {
+                    // A value's attributes beyond its count (a repeated
+                    // `X="…"`) are extras: each would be parsed again.
+                    if components(&field).is_some_and(|n| self.c.assigned >= n) {
+                        self.extras.add(at)?;
+                    }
+                    let known = set_component(field, name.as_bytes(), value, at, &mut self.tally)?;
+                    if known {
+                        self.c.assigned += 1;
+                    }
+                    known
+                }
+                _ => false,
             };
-            err(kind, last_end)
-        })?;
-        match token {
-            Token::Declaration { span, .. } => last_end = base + span.end(),
-            Token::ProcessingInstruction { span, .. } | Token::Comment { span, .. } => {
-                extras.add(base + span.start())?;
-                last_end = base + span.end();
+            if !known {
+                bump(&mut self.tally.unknown_attributes);
+                self.extras.add(at)?;
             }
-            Token::DtdStart { span, .. }
-            | Token::EmptyDtd { span, .. }
-            | Token::EntityDeclaration { span, .. }
-            | Token::DtdEnd { span } => return Err(err(K::Doctype, base + span.start())),
-            Token::ElementStart {
-                prefix,
-                local,
-                span,
-            } => {
-                let at = base + span.start();
-                if done {
-                    return Err(err(K::TrailingGarbage, at));
-                }
-                if span.end() >= body.len() {
-                    // `<RobD` at the end: the name itself was cut.
-                    return Err(err(K::Truncated, at));
-                }
-                let name = local.as_str();
-                match depth {
-                    0 => {
-                        if !prefix.is_empty() || name != M::WIRE_NAME {
-                            return Err(err(K::WrongRoot, at));
-                        }
-                    }
-                    1 => {
-                        child = (prefix.as_str(), name);
-                        target = match (value_body, M::field_index(name.as_bytes())) {
-                            (false, Some(i)) if prefix.is_empty() => {
-                                let bit = 1u64.checked_shl(i as u32).unwrap_or(0);
-                                if seen & bit != 0 {
-                                    return Err(err(K::Duplicate, at));
-                                }
-                                seen |= bit;
-                                c = Collected::new();
-                                Target::Slot(i)
-                            }
-                            _ => {
-                                bump(&mut tally.unknown_elements);
-                                extras.add(at)?;
-                                Target::None
-                            }
-                        };
-                    }
-                    _ => return Err(err(K::TooDeep, at)),
-                }
-                depth += 1;
-                in_start_tag = true;
-                last_end = base + span.end();
+        } else {
+            if self.target != Target::None || on_root {
+                bump(&mut self.tally.unknown_attributes);
             }
-            Token::Attribute {
-                prefix,
-                local,
-                value,
-                span,
-            } => {
-                let at = base + value.start();
-                let name = local.as_str().as_bytes();
-                if depth == 1 && prefix.is_empty() && name == b"Id" {
-                    if id.is_some() {
-                        return Err(err(K::Duplicate, at));
-                    }
-                    id = Some(parse_u32(value.as_bytes()).map_err(|_| err(K::InvalidId, at))?);
-                } else if depth == 1 && prefix.is_empty() && name == b"Ts" {
-                    if ts.is_some() {
-                        return Err(err(K::Duplicate, at));
-                    }
-                    ts = Some(parse_time(value.as_bytes()).map_err(|_| err(K::InvalidTs, at))?);
-                } else if let (Target::Slot(i), true) = (target, depth == 1 || !value_body) {
-                    let known = match M::field_mut(data, i) {
-                        Some(field) if prefix.is_empty() => {
-                            // A value's attributes beyond its count (a
-                            // repeated `X="…"`) are extras: each would be
-                            // parsed again.
-                            if components(&field).is_some_and(|n| c.assigned >= n) {
-                                extras.add(at)?;
-                            }
-                            let known = set_component(field, name, value.as_str(), at, &mut tally)?;
-                            if known {
-                                c.assigned += 1;
-                            }
-                            known
-                        }
-                        _ => false,
-                    };
-                    if !known {
-                        bump(&mut tally.unknown_attributes);
-                        extras.add(at)?;
-                    }
-                } else {
-                    if target != Target::None || depth == 1 {
-                        bump(&mut tally.unknown_attributes);
-                    }
-                    // Inside a skipped element too: each costs tokenizing.
-                    extras.add(at)?;
-                }
-                last_end = base + span.end();
+            // Inside a skipped element too: each costs tokenizing.
+            self.extras.add(at)?;
+        }
+        Ok(())
+    }
+
+    #[inline(always)]
+    fn text(
+        &mut self,
+        on_root: bool,
+        text: &'a str,
+        at: usize,
+        cdata: bool,
+    ) -> Result<(), DecodeError> {
+        match self.target {
+            Target::Slot(i) if on_root == Self::VALUE_BODY => {
+                collect(M::field_mut(self.data, i), &mut self.c, text, at, cdata)
             }
-            Token::ElementEnd { end, span } => {
-                let at = base + span.start();
-                if in_start_tag && depth == 1 && id.is_none() {
-                    return Err(err(K::MissingId, at));
+            _ => {
+                if on_root && !trim(text.as_bytes()).is_empty() {
+                    bump(&mut self.tally.stray_text);
+                    self.extras.add(at)?;
                 }
-                in_start_tag = false;
-                let closing = match end {
-                    ElementEnd::Open => false,
-                    ElementEnd::Empty => true,
-                    ElementEnd::Close(prefix, local) => {
-                        let open = if depth == 1 {
-                            ("", M::WIRE_NAME)
-                        } else {
-                            child
-                        };
-                        if (prefix.as_str(), local.as_str()) != open {
-                            return Err(err(K::MismatchedTag, at));
-                        }
-                        true
-                    }
-                };
-                if closing {
-                    let slot_ends = (depth == 2 && !value_body) || (depth == 1 && value_body);
-                    if slot_ends {
-                        if let Target::Slot(i) = target {
-                            if let Some(field) = M::field_mut(data, i) {
-                                finish_slot(field, &mut c, &mut tally)?;
-                            }
-                        }
-                    }
-                    if depth == 2 {
-                        target = if value_body {
-                            Target::Slot(0)
-                        } else {
-                            Target::None
-                        };
-                        // Back in the root of a value body: its own text
-                        // continues (a skipped child in between).
-                    }
-                    depth = depth.saturating_sub(1);
-                    if depth == 0 {
-                        done = true;
-                    }
-                }
-                last_end = base + span.end();
-            }
-            Token::Text { text: t } | Token::Cdata { text: t, .. } => {
-                let cdata = matches!(token, Token::Cdata { .. });
-                let at = base + t.start();
-                let in_slot = (depth == 2 && !value_body) || (depth == 1 && value_body);
-                match target {
-                    Target::Slot(i) if in_slot => {
-                        collect(M::field_mut(data, i), &mut c, t.as_str(), at, cdata)?;
-                    }
-                    _ => {
-                        if depth == 1 && !trim(t.as_bytes()).is_empty() {
-                            bump(&mut tally.stray_text);
-                            extras.add(at)?;
-                        }
-                    }
-                }
-                last_end = base + t.end();
+                Ok(())
             }
         }
     }
-    if !done {
-        return Err(err(K::Truncated, bytes.len()));
+
+    #[inline(always)]
+    fn other(&mut self, at: usize) -> Result<(), DecodeError> {
+        self.extras.add(at)
     }
-    let id = id.ok_or(err(K::MissingId, base))?;
-    if !value_body {
-        let n = M::FIELDS.len().min(64);
-        let missing = n as u32 - (seen & mask(n)).count_ones();
-        tally.missing_fields = tally
-            .missing_fields
-            .saturating_add(u16::try_from(missing).unwrap_or(u16::MAX));
+
+    #[inline(always)]
+    fn child_end(&mut self) -> Result<(), DecodeError> {
+        if let (Target::Slot(i), false) = (self.target, Self::VALUE_BODY) {
+            self.finish_slot(i)?;
+        }
+        // Back in the root of a value body: its own text continues (a
+        // skipped child in between).
+        self.target = Self::root_target();
+        Ok(())
     }
-    Ok(Decoded { id, ts, tally })
+
+    #[inline(always)]
+    fn root_end(&mut self) -> Result<(), DecodeError> {
+        match (self.target, Self::VALUE_BODY) {
+            (Target::Slot(i), true) => self.finish_slot(i),
+            _ => Ok(()),
+        }
+    }
 }
 
 /// The count of items a message holds beyond its layout (see
@@ -294,49 +268,123 @@ impl Extras {
     }
 }
 
-/// Whether the input after the last complete token is only the start of
-/// one (`<`, `</Ts_`, `<P_act X="1" `): no `>` outside quotes, so more bytes
-/// could have completed it. Error path only: linear in the tail.
-fn unfinished_tail(text: &str, from: usize) -> bool {
-    let tail = text.as_bytes().get(from..).unwrap_or(&[]);
-    if from == 0 && !tail.contains(&b'<') {
-        // Text without any markup (`hello robot`) is no cut message.
-        return false;
-    }
-    let mut quote: Option<u8> = None;
-    for &b in tail {
-        match (quote, b) {
-            (None, b'"' | b'\'') => quote = Some(b),
-            (Some(q), _) if q == b => quote = None,
-            (None, b'>') => return false,
-            _ => {}
-        }
-    }
-    true
-}
-
-/// Whether the tokenizer failed because the input stopped mid-token.
-fn ends_early(e: &xmlparser::Error) -> bool {
-    use xmlparser::{Error as E, StreamError};
-    match e {
-        E::InvalidDeclaration(s, _)
-        | E::InvalidComment(s, _)
-        | E::InvalidPI(s, _)
-        | E::InvalidDoctype(s, _)
-        | E::InvalidEntity(s, _)
-        | E::InvalidElement(s, _)
-        | E::InvalidAttribute(s, _)
-        | E::InvalidCdata(s, _)
-        | E::InvalidCharData(s, _) => matches!(s, StreamError::UnexpectedEndOfStream),
-        E::UnknownToken(_) => false,
-    }
-}
-
-/// The lowest `n` bits set.
+/// The lowest `n` bits set (`seen` has a bit per field: [`MAX_FIELDS`] of
+/// them fill a `u64`).
 fn mask(n: usize) -> u64 {
-    if n >= 64 {
+    const _: () = assert!(MAX_FIELDS <= u64::BITS as usize);
+    if n >= MAX_FIELDS {
         u64::MAX
     } else {
         (1u64 << n) - 1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The binding layer on a hand-written layout: a record `<T>` with a
+    //! real `A` and a frame `P`.
+    use super::*;
+    use crate::schema::{Direction, FieldMut, FieldRef, FieldWire, Message};
+    use crate::value::Frame;
+
+    #[derive(Default)]
+    struct Data {
+        a: f32,
+        p: Frame,
+    }
+
+    struct T;
+
+    impl Message for T {
+        type Data = Data;
+        const NAME: &'static str = "T";
+        const WIRE_NAME: &'static str = "T";
+        const DIRECTION: Direction = Direction::RobotToDevice;
+        const MAX_ENCODED_LEN: usize = 0;
+        const MAX_RECEIVE_LEN: usize = 512;
+    }
+
+    impl MessageCodec for T {
+        const BODY: Body = Body::Record;
+        const OPEN: &'static [u8] = b"";
+        const CLOSE: &'static [u8] = b"";
+        const FIELDS: &'static [FieldWire] = &[
+            FieldWire::new(b"A", b"", b""),
+            FieldWire::new(b"P", b"", b""),
+        ];
+        fn field_index(name: &[u8]) -> Option<usize> {
+            match name {
+                b"A" => Some(0),
+                b"P" => Some(1),
+                _ => None,
+            }
+        }
+        fn field(data: &Data, index: usize) -> Option<FieldRef<'_>> {
+            match index {
+                0 => Some(FieldRef::Real(data.a)),
+                1 => Some(FieldRef::Frame(&data.p)),
+                _ => None,
+            }
+        }
+        fn field_mut(data: &mut Data, index: usize) -> Option<FieldMut<'_>> {
+            match index {
+                0 => Some(FieldMut::Real(&mut data.a)),
+                1 => Some(FieldMut::Frame(&mut data.p)),
+                _ => None,
+            }
+        }
+    }
+
+    fn run(text: &str) -> (Data, Result<Decoded, DecodeError>) {
+        let mut data = Data::default();
+        let r = decode::<T>(text.as_bytes(), &mut data);
+        (data, r)
+    }
+
+    #[test]
+    fn m2_m4_fields_bind_by_name_in_any_order() {
+        let (d, r) = run(r#"<T Id="3"><P X="1" Rz="-2"/><A>2.5</A></T>"#);
+        let r = r.unwrap();
+        assert_eq!((r.id, d.a, d.p.x, d.p.rz), (3, 2.5, 1.0, -2.0));
+        // Y, Z, Rx, Ry were not sent: kept, and counted.
+        let missing = Tally {
+            missing_values: 4,
+            ..Tally::default()
+        };
+        assert_eq!(r.tally, missing);
+    }
+
+    #[test]
+    fn m2_unknown_items_are_counted_and_missing_fields_kept() {
+        let (d, r) = run(r#"<T Id="1" Mode="x">hi<Q>1</Q><A B="1">4</A></T>"#);
+        let t = r.unwrap().tally;
+        assert_eq!(d.a, 4.0);
+        assert_eq!(
+            (
+                t.unknown_elements,
+                t.unknown_attributes,
+                t.stray_text,
+                t.missing_fields
+            ),
+            (1, 2, 1, 1)
+        );
+    }
+
+    #[test]
+    fn m2_a_field_twice_is_an_error_at_its_second_start() {
+        let text = r#"<T Id="1"><A>1</A><A>2</A></T>"#;
+        let e = run(text).1.unwrap_err();
+        assert_eq!((e.kind, e.offset), (DecodeErrorKind::Duplicate, 18));
+    }
+
+    #[test]
+    fn extras_beyond_the_layout_are_refused() {
+        // Two fields + EXTRA_ITEMS extras are allowed; one more is not.
+        let comments = "<!---->".repeat(2 + EXTRA_ITEMS);
+        assert!(run(&format!(r#"<T Id="1">{comments}</T>"#)).1.is_ok());
+        let e = run(&format!(r#"<T Id="1">{comments}<!----></T>"#))
+            .1
+            .unwrap_err();
+        assert_eq!(e.kind, DecodeErrorKind::TooManyExtras);
     }
 }
