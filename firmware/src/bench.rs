@@ -159,16 +159,22 @@ pub struct Tap<D> {
 }
 
 impl<D> Tap<D> {
+    /// Wraps the board's driver `inner`; `counter` reads the instruction
+    /// counter the bench measures with.
     pub fn new(inner: D, counter: fn() -> u32) -> Self {
         Tap { inner, counter }
     }
 }
 
+/// A received frame's token that notes the counter when the stack
+/// consumes it (the start of a cycle's measured span).
 pub struct TapRx<T> {
     inner: T,
     counter: fn() -> u32,
 }
 
+/// A frame to send whose token notes the counter when the reply leaves
+/// (the end of a cycle's measured span).
 pub struct TapTx<T> {
     inner: T,
     counter: fn() -> u32,

@@ -20,7 +20,7 @@
 //!
 //! Three layers, each with its own tests: `events` turns tokens into the
 //! message's structure and checks it (root, `Id`/`Ts`, depth, tags); the
-//! [`Binder`] here maps those events to the generated record's slots and
+//! `Binder` here maps those events to the generated record's slots and
 //! counts what the layout does not know; `bind` turns a slot's text and
 //! attributes into typed values. They are generic and inlined into one
 //! loop, so the layering costs no dispatch (`cargo codec-bench`).
@@ -54,8 +54,8 @@ fn utf8(bytes: &[u8]) -> Result<&str, core::str::Utf8Error> {
 /// Decodes one robot datagram of message `M` into `data` (in place, M2:
 /// fields absent from the message keep their values).
 ///
-/// Two layers: [`events::walk`] checks the message's structure and tells
-/// the [`Binder`] each event; the binder maps them to the generated record.
+/// Two layers: `events::walk` checks the message's structure and tells
+/// the `Binder` each event; the binder maps them to the generated record.
 pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decoded, DecodeError> {
     use DecodeErrorKind as K;
     if bytes.len() > M::MAX_RECEIVE_LEN {
