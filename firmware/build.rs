@@ -23,11 +23,13 @@
 //! Every problem is reported as `file:line:col: error[rule]: …` and all of
 //! them at once; the G6 quirks of the manual's example build with a warning.
 
+use gsi_config::setting;
 use rri_vocabulary::{parse_ipv4, MAX_DECIMALS};
 use std::path::{Path, PathBuf};
 
 fn main() {
-    let manifest = PathBuf::from(env("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+    let manifest =
+        PathBuf::from(setting("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
     let workspace = manifest.parent().unwrap_or(&manifest).to_path_buf();
     mcu_link_args(&workspace, &manifest);
 
@@ -80,7 +82,7 @@ fn main() {
     for w in &loaded.warnings {
         report(w);
     }
-    let reply = match env("RRI_REPLY") {
+    let reply = match setting("RRI_REPLY") {
         None => 0,
         Some(name) => gsi_codegen::device_property(&loaded.device, "RRI_REPLY", &name)
             .unwrap_or_else(|e| {
@@ -88,7 +90,7 @@ fn main() {
                 0
             }),
     };
-    let periodic = match env("RRI_PERIODIC") {
+    let periodic = match setting("RRI_PERIODIC") {
         None => Vec::new(),
         Some(text) => gsi_codegen::periodic(&loaded.device, &text, reply).unwrap_or_else(|e| {
             errors.push(e);
@@ -120,7 +122,7 @@ fn main() {
             fail("the message layouts cannot be generated (see above)");
         }
     };
-    let out_dir = PathBuf::from(env("OUT_DIR").expect("cargo sets OUT_DIR"));
+    let out_dir = PathBuf::from(setting("OUT_DIR").expect("cargo sets OUT_DIR"));
     for (name, text) in [("layout.rs", source), ("network.rs", network)] {
         let out = out_dir.join(name);
         if let Err(e) = std::fs::write(&out, text) {
@@ -131,7 +133,7 @@ fn main() {
 
 /// `RRI_NETMASK` and `RRI_GATEWAY`, as Rust constants for `network.rs`.
 fn network(errors: &mut Vec<String>) -> String {
-    let prefix = match env("RRI_NETMASK") {
+    let prefix = match setting("RRI_NETMASK") {
         None => 24,
         Some(v) => match (v.trim().parse::<u8>(), parse_ipv4(&v)) {
             (Ok(bits), _) if bits <= 32 => bits,
@@ -149,7 +151,7 @@ fn network(errors: &mut Vec<String>) -> String {
             }
         },
     };
-    let gateway = match env("RRI_GATEWAY") {
+    let gateway = match setting("RRI_GATEWAY") {
         None => "None".to_string(),
         Some(v) => match parse_ipv4(&v) {
             Some([a, b, c, d]) => format!("Some([{a}, {b}, {c}, {d}])"),
@@ -169,12 +171,8 @@ fn network(errors: &mut Vec<String>) -> String {
     )
 }
 
-fn env(name: &str) -> Option<String> {
-    std::env::var(name).ok().filter(|v| !v.trim().is_empty())
-}
-
 fn decimals(var: &str, errors: &mut Vec<String>) -> u8 {
-    match env(var) {
+    match setting(var) {
         None => 3,
         Some(v) => match v.trim().parse::<u8>() {
             Ok(n) if n <= MAX_DECIMALS => n,
@@ -191,7 +189,7 @@ fn decimals(var: &str, errors: &mut Vec<String>) -> u8 {
 
 /// `RRI_CONTROLLER=ip[:port]`: pin the controller (only it is answered).
 fn controller(errors: &mut Vec<String>) -> Option<([u8; 4], Option<u16>)> {
-    let v = env("RRI_CONTROLLER")?;
+    let v = setting("RRI_CONTROLLER")?;
     let (ip, port) = match v.trim().split_once(':') {
         Some((ip, port)) => (ip, Some(port)),
         None => (v.trim(), None),
@@ -215,7 +213,7 @@ fn controller(errors: &mut Vec<String>) -> Option<([u8; 4], Option<u16>)> {
 
 /// `RRI_SEND_PERIOD_MS`: a multiple of 4 ms (the controller's cycle), 0 = off.
 fn send_period(errors: &mut Vec<String>) -> u32 {
-    match env("RRI_SEND_PERIOD_MS") {
+    match setting("RRI_SEND_PERIOD_MS") {
         None => 0,
         Some(v) => match v.trim().parse::<u32>() {
             Ok(ms) if ms % 4 == 0 => ms,
@@ -251,7 +249,7 @@ fn fail(summary: &str) -> ! {
 /// map and cortex-m-rt's linker script.
 fn mcu_link_args(workspace: &Path, manifest: &Path) {
     let has_bins = manifest.join("src").join("bin").is_dir();
-    if env("CARGO_CFG_TARGET_OS").as_deref() == Some("none") && has_bins {
+    if setting("CARGO_CFG_TARGET_OS").as_deref() == Some("none") && has_bins {
         println!("cargo:rustc-link-search={}", workspace.display());
         println!(
             "cargo:rerun-if-changed={}",

@@ -43,8 +43,10 @@ impl Selection {
     }
 }
 
-/// A build setting: `None` when unset or blank.
-fn setting(name: &str) -> Option<String> {
+/// A build setting from the environment: `None` when unset or blank, so
+/// `RRI_X=` means the default everywhere (the build script reads every
+/// `RRI_*` setting through this).
+pub fn setting(name: &str) -> Option<String> {
     std::env::var(name).ok().filter(|v| !v.trim().is_empty())
 }
 
