@@ -13,19 +13,24 @@ pub use rri_vocabulary::MAX_DECIMALS;
 
 const POW10: [u64; MAX_DECIMALS as usize + 1] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
 
-/// Decimal digits of `v` (at least one).
+/// Decimal digits of `v` (at least one): the bit length gives ⌊log10⌋
+/// within one (1233 / 4096 ≈ log10 2), and one comparison settles it; no
+/// division, which a Cortex-M7 has no instruction for on a `u64`.
 fn digit_count(v: u64) -> usize {
-    let mut n = 1;
-    let mut t = v;
-    while t >= 10_000 {
-        t /= 10_000;
-        n += 4;
-    }
-    while t >= 10 {
-        t /= 10;
-        n += 1;
-    }
-    n
+    const POWERS: [u64; 20] = {
+        let mut t = [1u64; 20];
+        let mut i = 1;
+        while i < 20 {
+            t[i] = t[i - 1] * 10;
+            i += 1;
+        }
+        t
+    };
+    let v = v | 1;
+    let guess = ((u64::BITS - v.leading_zeros()) * 1233 >> 12) as usize;
+    // `guess` ≤ 19 (64 bits × 1233 >> 12): the lookup always hits.
+    let below = POWERS.get(guess).is_some_and(|&p| v < p);
+    guess + 1 - usize::from(below)
 }
 
 /// 10^n for n ≤ 6 (larger n is clamped).
@@ -202,13 +207,11 @@ impl Writer<'_> {
     /// into the output from its last digit backwards, two digits per
     /// division (the hot path of every sent real: no temporary, no copy).
     fn fixed(&mut self, negative: bool, q: u64, decimals: u8) {
-        let frac = decimals.min(MAX_DECIMALS);
-        let p = pow10(frac);
-        let mut int = q / p;
-        let mut f = q % p;
-        let frac = usize::from(frac);
+        let frac = usize::from(decimals.min(MAX_DECIMALS));
         let point = usize::from(frac > 0);
-        let total = usize::from(negative) + digit_count(int) + point + frac;
+        // All of `q`'s digits, and at least one before the point.
+        let digits = digit_count(q).max(frac + 1);
+        let total = usize::from(negative) + digits + point;
         let Some(dst) = self.reserve(total) else {
             return;
         };
@@ -229,24 +232,28 @@ impl Writer<'_> {
                 put!(hi);
             };
         }
+        // Right to left: the decimals, the point, the integer part, the
+        // sign; divisions by constants only.
+        let mut v = q;
         for _ in 0..frac / 2 {
-            pair!(f % 100);
-            f /= 100;
+            pair!(v % 100);
+            v /= 100;
         }
         if frac % 2 == 1 {
-            put!(b'0' + (f % 10) as u8);
+            put!(b'0' + (v % 10) as u8);
+            v /= 10;
         }
         if point == 1 {
             put!(b'.');
         }
-        while int >= 100 {
-            pair!(int % 100);
-            int /= 100;
+        while v >= 100 {
+            pair!(v % 100);
+            v /= 100;
         }
-        if int >= 10 {
-            pair!(int);
+        if v >= 10 {
+            pair!(v);
         } else {
-            put!(b'0' + int as u8);
+            put!(b'0' + v as u8);
         }
         if negative {
             put!(b'-');

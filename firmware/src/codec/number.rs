@@ -40,6 +40,12 @@ pub const MAX_NUMBER_LEN: usize = 48;
 
 /// Strips XML whitespace (space, tab, CR, LF) from both ends.
 pub fn trim(s: &[u8]) -> &[u8] {
+    // Whitespace is at most b' ': most texts have none at either end.
+    if let [first, .., last] = s {
+        if *first > b' ' && *last > b' ' {
+            return s;
+        }
+    }
     let mut t = s;
     while let [b' ' | b'\t' | b'\r' | b'\n', rest @ ..] = t {
         t = rest;
@@ -48,6 +54,12 @@ pub fn trim(s: &[u8]) -> &[u8] {
         t = rest;
     }
     t
+}
+
+/// Only XML whitespace (or nothing): the indentation between a message's
+/// elements, which every datagram of a pretty-printing controller has.
+pub fn blank(s: &[u8]) -> bool {
+    s.iter().all(|b| matches!(b, b' ' | b'\t' | b'\r' | b'\n'))
 }
 
 /// Splits off a leading sign: whether it was `-`, and the rest.
@@ -105,6 +117,82 @@ struct Decimal {
     inexact: bool,
 }
 
+/// Digits a `u64` mantissa takes without any check: 10^19 − 1 fits.
+const SAFE_DIGITS: usize = 19;
+
+/// How many digits `s` starts with, what follows them, and `m` with
+/// those digits appended (wrapping, so exact only while the digits taken
+/// in all are at most [`SAFE_DIGITS`]). One tight loop: a robot's reals
+/// are 3 to 13 characters, and this loop is most of their cost.
+#[inline(always)]
+fn digit_run(s: &[u8], mut m: u64) -> (usize, &[u8], u64) {
+    let mut rest = s;
+    while let [b, tail @ ..] = rest {
+        let v = b.wrapping_sub(b'0');
+        if v > 9 {
+            break;
+        }
+        m = m.wrapping_mul(10).wrapping_add(u64::from(v));
+        rest = tail;
+    }
+    (s.len() - rest.len(), rest, m)
+}
+
+/// The mantissa of more than [`SAFE_DIGITS`] digits: `whole` digits at
+/// the start of `digits`, then a point and `fraction` digits (the text
+/// after the sign, already scanned). Returns the first 19 significant
+/// digits, the power of ten that goes with them, the first dropped digit
+/// and whether any dropped digit is not zero. Rare (a robot writes at
+/// most 9 significant digits), so kept out of the common path.
+#[cold]
+#[inline(never)]
+fn long_mantissa(digits: &[u8], whole: usize, fraction: usize) -> (u64, i32, Option<u8>, bool) {
+    const FULL: u64 = 1_000_000_000_000_000_000;
+    let (mut m, mut exponent, mut first_dropped, mut inexact) = (0u64, 0i32, None, false);
+    let before = digits.iter().take(whole).map(|&b| (b, false));
+    let after = digits
+        .iter()
+        .skip(whole + 1)
+        .take(fraction)
+        .map(|&b| (b, true));
+    for (b, after_point) in before.chain(after) {
+        let v = b.wrapping_sub(b'0');
+        if m < FULL {
+            m = m * 10 + u64::from(v);
+            exponent -= i32::from(after_point);
+        } else {
+            // Past 19 significant digits: only the first one matters for
+            // rounding, any other only for exactness.
+            if first_dropped.is_none() {
+                first_dropped = Some(v);
+            }
+            inexact |= v != 0;
+            exponent += i32::from(!after_point);
+        }
+    }
+    (m, exponent, first_dropped, inexact)
+}
+
+/// The exponent after a mantissa: `e` or `E`, an optional sign, at
+/// least one digit, and nothing after them. Clamped at ±100 000: anything
+/// that large is out of range anyway. Out of line: a robot writes none.
+#[cold]
+#[inline(never)]
+fn exponent_part(rest: &[u8]) -> Option<i32> {
+    let [b'e' | b'E', exp_text @ ..] = rest else {
+        return None;
+    };
+    let (negative, exp) = sign(exp_text);
+    if exp.is_empty() {
+        return None;
+    }
+    let mut e: i32 = 0;
+    for &b in exp {
+        e = (e * 10 + i32::from(digit(b)?)).min(100_000);
+    }
+    Some(if negative { -e } else { e })
+}
+
 /// The one decimal scanner: splits trimmed text into a [`Decimal`], or
 /// `None` when it is not `[sign] digits [. digits] [e [sign] digits]` with
 /// at least one mantissa digit (so no `inf`, `nan` or hex, which
@@ -112,62 +200,31 @@ struct Decimal {
 // Inlined into both callers: the scan is the hot loop of every real.
 #[inline(always)]
 fn split_decimal(t: &[u8]) -> Option<Decimal> {
-    let (negative, rest) = sign(t);
-    const FULL: u64 = 1_000_000_000_000_000_000;
-    let mut mantissa: u64 = 0;
-    let mut exponent: i32 = 0;
-    let mut first_dropped = None;
-    let mut inexact = false;
-    let mut point = false;
-    let mut i = 0;
-    while let Some(&b) = rest.get(i) {
-        if let Some(v) = digit(b) {
-            if mantissa < FULL {
-                mantissa = mantissa * 10 + u64::from(v);
-                exponent -= i32::from(point);
-            } else {
-                // Past 19 significant digits: only the first one matters
-                // for rounding, any other only for exactness.
-                if first_dropped.is_none() {
-                    first_dropped = Some(v);
-                }
-                inexact |= v != 0;
-                exponent += i32::from(!point);
-            }
-        } else if b == b'.' && !point {
-            point = true;
-        } else {
-            break;
-        }
-        i += 1;
-    }
-    // Everything scanned was a digit but the point: none means no number.
-    if i == usize::from(point) {
+    let (negative, digits) = sign(t);
+    let (whole, rest, m) = digit_run(digits, 0);
+    let (fraction, rest, m) = match rest {
+        [b'.', after @ ..] => digit_run(after, m),
+        _ => (0, rest, m),
+    };
+    let taken = whole + fraction;
+    if taken == 0 {
         return None;
     }
-    // After the digits: an exponent, or the end. (`i` stops at the end at
-    // the latest, so `get` always succeeds; a `None` would be refused like
-    // trailing bytes, not taken as an empty exponent.)
-    match rest.get(i..) {
-        Some([b'e' | b'E', exp_text @ ..]) => {
-            let (negative_exp, exp) = sign(exp_text);
-            if exp.is_empty() {
-                return None;
-            }
-            let mut e: i32 = 0;
-            for &b in exp {
-                // Clamp: anything this large is out of range anyway.
-                e = (e * 10 + i32::from(digit(b)?)).min(100_000);
-            }
-            exponent += if negative_exp { -e } else { e };
-        }
-        Some([]) => {}
-        _ => return None,
-    }
+    // After the digits: an exponent, or the end.
+    let written_exponent = match rest {
+        [] => 0,
+        _ => exponent_part(rest)?,
+    };
+    let (mantissa, exponent, first_dropped, inexact) = if taken <= SAFE_DIGITS {
+        // At most 19 digits: `fraction` ≤ 19 fits an i32.
+        (m, -(fraction as i32), None, false)
+    } else {
+        long_mantissa(digits, whole, fraction)
+    };
     Some(Decimal {
         negative,
         mantissa,
-        exponent,
+        exponent: exponent + written_exponent,
         first_dropped,
         inexact,
     })
@@ -192,15 +249,14 @@ pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
     }
     let d = split_decimal(t).ok_or(NumberError::Syntax)?;
     let exp = d.exponent.unsigned_abs() as usize;
-    // The robot's common case first, returned at once: below 2^24 × 10^10
-    // the result is finite.
-    if let (false, true, Some(&p)) = (d.inexact, d.mantissa < 1 << 24, POW10_F32.get(exp)) {
-        let m = d.mantissa as f32;
-        let v = if d.exponent < 0 { m / p } else { m * p };
-        return Ok(if d.negative { -v } else { v });
-    }
+    // The common cases first, returned at once (both are finite: below
+    // 2^24 × 10^10 and 2^53 × 10^22, under `f32::MAX`).
     let fast = if d.inexact {
         None
+    } else if let (true, Some(&p)) = (d.mantissa < 1 << 24, POW10_F32.get(exp)) {
+        // A robot's `1620.000` or `-0.0877707`.
+        let m = d.mantissa as f32;
+        Some(if d.exponent < 0 { m / p } else { m * p })
     } else if let (true, Some(&p)) = (d.mantissa < 1 << 53, POW10_F64.get(exp)) {
         let m = d.mantissa as f64;
         let v = if d.exponent < 0 { m / p } else { m * p };
@@ -208,16 +264,27 @@ pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
         // means the value sits on an f32 midpoint.
         let midpoint = v.to_bits() & ((1 << 29) - 1) == 1 << 28;
         (!midpoint).then_some(v as f32)
-    } else if d.mantissa == 0 {
-        Some(0.0)
     } else {
         None
     };
     let v = match fast {
         Some(v) => v,
-        None => super::exact::parse_magnitude(t)?,
+        None => exact_magnitude(t, d.mantissa)?,
     };
-    let v = if d.negative { -v } else { v };
+    Ok(if d.negative { -v } else { v })
+}
+
+/// The magnitude of `t` where no fast path applies: zero, or
+/// `codec::exact`, with a result beyond `f32` refused. Out of line, so the
+/// common path keeps its registers.
+#[cold]
+#[inline(never)]
+fn exact_magnitude(t: &[u8], mantissa: u64) -> Result<f32, NumberError> {
+    let v = if mantissa == 0 {
+        0.0
+    } else {
+        super::exact::parse_magnitude(t)?
+    };
     if v.is_finite() {
         Ok(v)
     } else {
