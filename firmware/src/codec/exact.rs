@@ -349,11 +349,6 @@ fn settle_near(d: &Big, c: &Cut, approx: f64) -> Result<Option<f32>, NumberError
 /// The correctly rounded magnitude of a decimal text (sign ignored; the
 /// caller has checked it is a decimal). Bounded work: one pass over the
 /// text, then at most a few hundred word operations.
-///
-/// Never inlined: its big-number frame would otherwise be set up on every
-/// call of `parse_f32`, even the robot's plain `1620.000`.
-#[inline(never)]
-#[cold]
 pub fn parse_magnitude(t: &[u8]) -> Result<f32, NumberError> {
     let c = cut(t);
     if c.kept == 0 {

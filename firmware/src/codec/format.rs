@@ -165,24 +165,16 @@ impl Writer<'_> {
             (frac | 0x0080_0000, biased - 150)
         };
         if e >= 0 {
-            // 2^24 and above: an integer of up to 39 digits, zero fraction.
-            let mut v = u128::from(m) << e;
-            let mut d = Backward::new();
-            for _ in 0..decimals {
-                d.push(b'0');
+            // 2^24 and above: the integer m × 2^e, zero fraction; below
+            // 2^64 / 10^decimals a fixed-point value like any other.
+            let v = u128::from(m) << e;
+            match u64::try_from(v)
+                .ok()
+                .and_then(|v| v.checked_mul(pow10(decimals)))
+            {
+                Some(q) => self.fixed(negative, q, decimals),
+                None => self.huge(negative, v, decimals),
             }
-            if decimals > 0 {
-                d.push(b'.');
-            }
-            while v >= 1 << 64 {
-                d.digit((v % 10) as u64);
-                v /= 10;
-            }
-            d.integer(v as u64);
-            if negative {
-                d.push(b'-');
-            }
-            self.bytes(d.as_slice());
             return true;
         }
         let scaled = m * pow10(decimals);
@@ -258,6 +250,52 @@ impl Writer<'_> {
         if negative {
             put!(b'-');
         }
+    }
+
+    /// An integer of up to 39 digits (`f32` values from about 10^13 up to
+    /// `f32::MAX`) and `decimals` zeros. Nine digits at a time by long
+    /// division of 32-bit limbs: `u64` arithmetic only, no `u128`
+    /// division (which a Cortex-M7 has no instruction for, and which costs
+    /// about a kilobyte of code inline). Rare, so out of line.
+    #[cold]
+    #[inline(never)]
+    fn huge(&mut self, negative: bool, v: u128, decimals: u8) {
+        const CHUNK: u64 = 1_000_000_000;
+        let mut d = Backward::new();
+        for _ in 0..decimals {
+            d.push(b'0');
+        }
+        if decimals > 0 {
+            d.push(b'.');
+        }
+        let mut limbs = [
+            (v >> 96) as u32,
+            (v >> 64) as u32,
+            (v >> 32) as u32,
+            v as u32,
+        ];
+        // 2^128 < 10^45: five chunks of nine digits hold any `v`.
+        for _ in 0..5 {
+            let mut r = 0u64;
+            for limb in &mut limbs {
+                let cur = r << 32 | u64::from(*limb);
+                *limb = (cur / CHUNK) as u32;
+                r = cur % CHUNK;
+            }
+            if limbs == [0; 4] {
+                // The leading chunk: no leading zeros.
+                d.integer(r);
+                break;
+            }
+            for _ in 0..9 {
+                d.digit(r % 10);
+                r /= 10;
+            }
+        }
+        if negative {
+            d.push(b'-');
+        }
+        self.bytes(d.as_slice());
     }
 
     /// A time in seconds with exactly `decimals` decimals, rounded half

@@ -149,13 +149,12 @@ fn digit_run(s: &[u8], mut m: u64) -> (usize, &[u8], u64) {
 fn long_mantissa(digits: &[u8], whole: usize, fraction: usize) -> (u64, i32, Option<u8>, bool) {
     const FULL: u64 = 1_000_000_000_000_000_000;
     let (mut m, mut exponent, mut first_dropped, mut inexact) = (0u64, 0i32, None, false);
-    let before = digits.iter().take(whole).map(|&b| (b, false));
-    let after = digits
-        .iter()
-        .skip(whole + 1)
-        .take(fraction)
-        .map(|&b| (b, true));
-    for (b, after_point) in before.chain(after) {
+    // The digits, and the point between them at `whole` (if any).
+    for (i, &b) in digits.iter().enumerate().take(whole + 1 + fraction) {
+        if i == whole {
+            continue;
+        }
+        let after_point = i > whole;
         let v = b.wrapping_sub(b'0');
         if m < FULL {
             m = m * 10 + u64::from(v);
@@ -193,36 +192,67 @@ fn exponent_part(rest: &[u8]) -> Option<i32> {
     Some(if negative { -e } else { e })
 }
 
+/// The first half of a decimal number: `[sign] digits [. digits]`.
+struct Mantissa<'t> {
+    negative: bool,
+    /// The text after the sign.
+    digits: &'t [u8],
+    /// Digits before the point, and after it.
+    whole: usize,
+    fraction: usize,
+    /// All those digits as one integer; exact while there are at most
+    /// [`SAFE_DIGITS`] of them.
+    value: u64,
+    /// What follows the digits.
+    rest: &'t [u8],
+}
+
+/// Reads the mantissa at the start of `t`; the first half of the one
+/// decimal scanner, and all of it for the robot's own notation.
+#[inline(always)]
+fn mantissa(t: &[u8]) -> Mantissa<'_> {
+    let (negative, digits) = sign(t);
+    let (whole, rest, value) = digit_run(digits, 0);
+    let (fraction, rest, value) = match rest {
+        [b'.', after @ ..] => digit_run(after, value),
+        _ => (0, rest, value),
+    };
+    Mantissa {
+        negative,
+        digits,
+        whole,
+        fraction,
+        value,
+        rest,
+    }
+}
+
 /// The one decimal scanner: splits trimmed text into a [`Decimal`], or
 /// `None` when it is not `[sign] digits [. digits] [e [sign] digits]` with
 /// at least one mantissa digit (so no `inf`, `nan` or hex, which
 /// `f32::from_str` would take).
-// Inlined into both callers: the scan is the hot loop of every real.
-#[inline(always)]
+// Out of line: the robot's reals take `parse_f32`'s plain path, which
+// reads only the mantissa; times and everything else come here.
+#[inline(never)]
 fn split_decimal(t: &[u8]) -> Option<Decimal> {
-    let (negative, digits) = sign(t);
-    let (whole, rest, m) = digit_run(digits, 0);
-    let (fraction, rest, m) = match rest {
-        [b'.', after @ ..] => digit_run(after, m),
-        _ => (0, rest, m),
-    };
-    let taken = whole + fraction;
+    let m = mantissa(t);
+    let taken = m.whole + m.fraction;
     if taken == 0 {
         return None;
     }
     // After the digits: an exponent, or the end.
-    let written_exponent = match rest {
+    let written_exponent = match m.rest {
         [] => 0,
-        _ => exponent_part(rest)?,
+        rest => exponent_part(rest)?,
     };
     let (mantissa, exponent, first_dropped, inexact) = if taken <= SAFE_DIGITS {
         // At most 19 digits: `fraction` ≤ 19 fits an i32.
-        (m, -(fraction as i32), None, false)
+        (m.value, -(m.fraction as i32), None, false)
     } else {
-        long_mantissa(digits, whole, fraction)
+        long_mantissa(m.digits, m.whole, m.fraction)
     };
     Some(Decimal {
-        negative,
+        negative: m.negative,
         mantissa,
         exponent: exponent + written_exponent,
         first_dropped,
@@ -230,42 +260,70 @@ fn split_decimal(t: &[u8]) -> Option<Decimal> {
     })
 }
 
-/// An RRI `real` (M5): any decimal float text, with sign and exponent,
-/// surrounded by whitespace or not (`1.21592e-06`, ` -12345.678901 `),
-/// correctly rounded; a finite text beyond `f32`'s range is
-/// [`NumberError::OutOfRange`].
-///
-/// Fast paths (Clinger's): a mantissa of at most 24 bits and a power of
-/// ten up to 10^10 is one exact `f32` operation (a robot's `1620.000` or
-/// `-0.0877707`); at most 53 bits and 10^22 is one exact `f64` operation,
-/// rounded once more to `f32` unless the `f64` result sits exactly on an
-/// `f32` midpoint (the only case where two roundings can differ from one).
-/// Everything else goes through `codec::exact`, exact with bounded work
-/// and no tables.
-pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
-    let t = trim(text);
-    if t.len() > MAX_NUMBER_LEN {
-        return Err(NumberError::TooLong);
-    }
-    let d = split_decimal(t).ok_or(NumberError::Syntax)?;
-    let exp = d.exponent.unsigned_abs() as usize;
-    // The common cases first, returned at once (both are finite: below
-    // 2^24 × 10^10 and 2^53 × 10^22, under `f32::MAX`).
-    let fast = if d.inexact {
-        None
-    } else if let (true, Some(&p)) = (d.mantissa < 1 << 24, POW10_F32.get(exp)) {
-        // A robot's `1620.000` or `-0.0877707`.
-        let m = d.mantissa as f32;
-        Some(if d.exponent < 0 { m / p } else { m * p })
-    } else if let (true, Some(&p)) = (d.mantissa < 1 << 53, POW10_F64.get(exp)) {
-        let m = d.mantissa as f64;
-        let v = if d.exponent < 0 { m / p } else { m * p };
+/// Clinger's fast paths: `mantissa × 10^exponent` correctly rounded with
+/// one exact float operation, or `None` where that does not hold. A
+/// mantissa of at most 24 bits and a power of ten up to 10^10 is one exact
+/// `f32` operation (a robot's `1620.000` or `-0.0877707`); at most 53 bits
+/// and 10^22 is one exact `f64` operation, rounded once more to `f32`
+/// unless the `f64` result sits exactly on an `f32` midpoint (the only
+/// case where two roundings can differ from one). Both results are finite
+/// (below 2^53 × 10^22, under `f32::MAX`).
+#[inline(always)]
+fn clinger(mantissa: u64, exponent: i32) -> Option<f32> {
+    let exp = exponent.unsigned_abs() as usize;
+    if let (true, Some(&p)) = (mantissa < 1 << 24, POW10_F32.get(exp)) {
+        let m = mantissa as f32;
+        Some(if exponent < 0 { m / p } else { m * p })
+    } else if let (true, Some(&p)) = (mantissa < 1 << 53, POW10_F64.get(exp)) {
+        let m = mantissa as f64;
+        let v = if exponent < 0 { m / p } else { m * p };
         // The 29 bits of an f64 mantissa below f32 precision; exactly half
         // means the value sits on an f32 midpoint.
         let midpoint = v.to_bits() & ((1 << 29) - 1) == 1 << 28;
         (!midpoint).then_some(v as f32)
     } else {
         None
+    }
+}
+
+/// An RRI `real` (M5): any decimal float text, with sign and exponent,
+/// surrounded by whitespace or not (`1.21592e-06`, ` -12345.678901 `),
+/// correctly rounded; a finite text beyond `f32`'s range is
+/// [`NumberError::OutOfRange`].
+///
+/// The robot's own notation (`1620.000`, `-12345.678901`: no whitespace,
+/// no exponent, at most 19 digits) is one scan of the mantissa and one
+/// float operation ([`clinger`]); anything else goes through the whole
+/// scanner and, where no fast path holds, `codec::exact`, exact with
+/// bounded work and no tables.
+pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
+    // Longer than 19 digits, a sign and a point: not plain.
+    if text.len() <= SAFE_DIGITS + 2 {
+        let m = mantissa(text);
+        if let ([], 1..=SAFE_DIGITS) = (m.rest, m.whole + m.fraction) {
+            // At most 19 digits: `fraction` ≤ 19 fits an i32.
+            if let Some(v) = clinger(m.value, -(m.fraction as i32)) {
+                return Ok(if m.negative { -v } else { v });
+            }
+        }
+    }
+    parse_f32_general(text)
+}
+
+/// [`parse_f32`] for whatever is not the robot's plain notation:
+/// whitespace, exponents, long mantissas, midpoints. Out of line, so the
+/// plain path keeps its registers.
+#[inline(never)]
+fn parse_f32_general(text: &[u8]) -> Result<f32, NumberError> {
+    let t = trim(text);
+    if t.len() > MAX_NUMBER_LEN {
+        return Err(NumberError::TooLong);
+    }
+    let d = split_decimal(t).ok_or(NumberError::Syntax)?;
+    let fast = if d.inexact {
+        None
+    } else {
+        clinger(d.mantissa, d.exponent)
     };
     let v = match fast {
         Some(v) => v,

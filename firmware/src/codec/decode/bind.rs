@@ -161,7 +161,9 @@ pub(super) fn set_component(
 }
 
 /// Sets array element `X<i>` (M4) to what `parse` makes of the value;
-/// `Ok(false)` when the array has no such element.
+/// `Ok(false)` when the array has no such element. Inlined: a call per
+/// element of a robot's `AppData` costs more than the binding itself.
+#[inline(always)]
 pub(super) fn set_element<T>(
     array: &mut [T],
     name: &[u8],
