@@ -17,6 +17,7 @@ const POW10: [u64; MAX_DECIMALS as usize + 1] = [1, 10, 100, 1_000, 10_000, 100_
 /// within one (1233 / 4096 ≈ log10 2), and one comparison settles it; no
 /// division, which a Cortex-M7 has no instruction for on a `u64`.
 fn digit_count(v: u64) -> usize {
+    #[allow(clippy::indexing_slicing)] // evaluated at compile time
     const POWERS: [u64; 20] = {
         let mut t = [1u64; 20];
         let mut i = 1;
@@ -27,7 +28,7 @@ fn digit_count(v: u64) -> usize {
         t
     };
     let v = v | 1;
-    let guess = ((u64::BITS - v.leading_zeros()) * 1233 >> 12) as usize;
+    let guess = (((u64::BITS - v.leading_zeros()) * 1233) >> 12) as usize;
     // `guess` ≤ 19 (64 bits × 1233 >> 12): the lookup always hits.
     let below = POWERS.get(guess).is_some_and(|&p| v < p);
     guess + 1 - usize::from(below)
@@ -323,6 +324,24 @@ mod tests {
         let mut w = Writer::new(&mut buf);
         w.real(x, d);
         String::from_utf8(w.written().to_vec()).unwrap()
+    }
+
+    #[test]
+    fn digit_count_is_exact_at_every_power_of_ten() {
+        assert_eq!(digit_count(0), 1);
+        assert_eq!(digit_count(u64::MAX), 20);
+        let mut p = 1u64;
+        for n in 1..=19 {
+            assert_eq!(digit_count(p), n, "10^{}", n - 1);
+            assert_eq!(
+                digit_count(p - 1).max(1),
+                (n - 1).max(1),
+                "10^{} - 1",
+                n - 1
+            );
+            assert_eq!(digit_count(p * 10 - 1), n, "10^{n} - 1");
+            p *= 10;
+        }
     }
 
     fn time(micros: i64, d: u8) -> String {

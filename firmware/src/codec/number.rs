@@ -104,17 +104,33 @@ const POW10_F64: [f64; 23] = [
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
-/// A decimal number as `±mantissa × 10^exponent`, its first 19
-/// significant digits kept (another one could overflow a `u64`).
-struct Decimal {
+/// A decimal number as `±mantissa × 10^exponent`, exact up to 19 digits.
+struct Decimal<'t> {
     negative: bool,
+    /// The number's while it has at most 19 digits ([`SAFE_DIGITS`]).
     mantissa: u64,
+    /// The written exponent, and the fraction digits' with it.
     exponent: i32,
-    /// The first significant digit past the 19 kept (for rounding).
-    first_dropped: Option<u8>,
-    /// Some dropped digit is not zero: the mantissa is cut, so the fast
-    /// float paths do not apply.
-    inexact: bool,
+    /// More than 19 digits: the digits after the sign, how many there are
+    /// before the point and after it (read by [`Decimal::kept`] when
+    /// needed: `parse_f32` hands such a text to `codec::exact` whole).
+    long: Option<(&'t [u8], usize, usize)>,
+    /// The exponent as written (`0` without one).
+    written_exponent: i32,
+}
+
+impl Decimal<'_> {
+    /// The first 19 significant digits, the power of ten that goes with
+    /// them and the first digit dropped (for rounding).
+    fn kept(&self) -> (u64, i32, Option<u8>) {
+        match self.long {
+            None => (self.mantissa, self.exponent, None),
+            Some((digits, whole, fraction)) => {
+                let (m, e, first_dropped) = long_mantissa(digits, whole, fraction);
+                (m, e + self.written_exponent, first_dropped)
+            }
+        }
+    }
 }
 
 /// Digits a `u64` mantissa takes without any check: 10^19 − 1 fits.
@@ -141,14 +157,14 @@ fn digit_run(s: &[u8], mut m: u64) -> (usize, &[u8], u64) {
 /// The mantissa of more than [`SAFE_DIGITS`] digits: `whole` digits at
 /// the start of `digits`, then a point and `fraction` digits (the text
 /// after the sign, already scanned). Returns the first 19 significant
-/// digits, the power of ten that goes with them, the first dropped digit
-/// and whether any dropped digit is not zero. Rare (a robot writes at
-/// most 9 significant digits), so kept out of the common path.
+/// digits, the power of ten that goes with them and the first dropped
+/// digit. Rare (a robot writes at most 9 significant digits), so kept out
+/// of the common path.
 #[cold]
 #[inline(never)]
-fn long_mantissa(digits: &[u8], whole: usize, fraction: usize) -> (u64, i32, Option<u8>, bool) {
+fn long_mantissa(digits: &[u8], whole: usize, fraction: usize) -> (u64, i32, Option<u8>) {
     const FULL: u64 = 1_000_000_000_000_000_000;
-    let (mut m, mut exponent, mut first_dropped, mut inexact) = (0u64, 0i32, None, false);
+    let (mut m, mut exponent, mut first_dropped) = (0u64, 0i32, None);
     // The digits, and the point between them at `whole` (if any).
     for (i, &b) in digits.iter().enumerate().take(whole + 1 + fraction) {
         if i == whole {
@@ -161,15 +177,14 @@ fn long_mantissa(digits: &[u8], whole: usize, fraction: usize) -> (u64, i32, Opt
             exponent -= i32::from(after_point);
         } else {
             // Past 19 significant digits: only the first one matters for
-            // rounding, any other only for exactness.
+            // rounding.
             if first_dropped.is_none() {
                 first_dropped = Some(v);
             }
-            inexact |= v != 0;
             exponent += i32::from(!after_point);
         }
     }
-    (m, exponent, first_dropped, inexact)
+    (m, exponent, first_dropped)
 }
 
 /// The exponent after a mantissa: `e` or `E`, an optional sign, at
@@ -234,7 +249,7 @@ fn mantissa(t: &[u8]) -> Mantissa<'_> {
 // Out of line: the robot's reals take `parse_f32`'s plain path, which
 // reads only the mantissa; times and everything else come here.
 #[inline(never)]
-fn split_decimal(t: &[u8]) -> Option<Decimal> {
+fn split_decimal(t: &[u8]) -> Option<Decimal<'_>> {
     let m = mantissa(t);
     let taken = m.whole + m.fraction;
     if taken == 0 {
@@ -245,18 +260,14 @@ fn split_decimal(t: &[u8]) -> Option<Decimal> {
         [] => 0,
         rest => exponent_part(rest)?,
     };
-    let (mantissa, exponent, first_dropped, inexact) = if taken <= SAFE_DIGITS {
-        // At most 19 digits: `fraction` ≤ 19 fits an i32.
-        (m.value, -(m.fraction as i32), None, false)
-    } else {
-        long_mantissa(m.digits, m.whole, m.fraction)
-    };
+    let long = (taken > SAFE_DIGITS).then_some((m.digits, m.whole, m.fraction));
     Some(Decimal {
         negative: m.negative,
-        mantissa,
-        exponent: exponent + written_exponent,
-        first_dropped,
-        inexact,
+        mantissa: m.value,
+        // While at most 19 digits: `fraction` ≤ 19 fits an i32.
+        exponent: written_exponent - (m.fraction.min(SAFE_DIGITS) as i32),
+        long,
+        written_exponent,
     })
 }
 
@@ -320,29 +331,26 @@ fn parse_f32_general(text: &[u8]) -> Result<f32, NumberError> {
         return Err(NumberError::TooLong);
     }
     let d = split_decimal(t).ok_or(NumberError::Syntax)?;
-    let fast = if d.inexact {
-        None
-    } else {
-        clinger(d.mantissa, d.exponent)
+    // More than 19 digits: straight to the exact path (which reads the
+    // text itself), without taking the digits twice.
+    let fast = match d.long {
+        None => clinger(d.mantissa, d.exponent),
+        Some(_) => None,
     };
     let v = match fast {
         Some(v) => v,
-        None => exact_magnitude(t, d.mantissa)?,
+        None => exact_magnitude(t)?,
     };
     Ok(if d.negative { -v } else { v })
 }
 
-/// The magnitude of `t` where no fast path applies: zero, or
-/// `codec::exact`, with a result beyond `f32` refused. Out of line, so the
+/// The magnitude of `t` where no fast path applies, by `codec::exact`,
+/// with a result beyond `f32` refused. Out of line, so the
 /// common path keeps its registers.
 #[cold]
 #[inline(never)]
-fn exact_magnitude(t: &[u8], mantissa: u64) -> Result<f32, NumberError> {
-    let v = if mantissa == 0 {
-        0.0
-    } else {
-        super::exact::parse_magnitude(t)?
-    };
+fn exact_magnitude(t: &[u8]) -> Result<f32, NumberError> {
+    let v = super::exact::parse_magnitude(t)?;
     if v.is_finite() {
         Ok(v)
     } else {
@@ -365,9 +373,9 @@ pub fn parse_time(text: &[u8]) -> Result<Time, NumberError> {
         return Err(NumberError::TooLong);
     }
     let d = split_decimal(t).ok_or(NumberError::Syntax)?;
-    let mantissa = d.mantissa;
+    let (mantissa, exponent, first_dropped) = d.kept();
     // micros = mantissa × 10^(exponent + 6)
-    let shift = d.exponent + 6;
+    let shift = exponent + 6;
     let micros: u64 = if mantissa == 0 {
         0
     } else if shift >= 0 {
@@ -399,7 +407,7 @@ pub fn parse_time(text: &[u8]) -> Result<Time, NumberError> {
     };
     // With nothing dropped below the microsecond, a 20th significant digit
     // is the next one (with more integer digits it is out of range anyway).
-    let micros = if shift >= 0 && d.first_dropped.is_some_and(|v| v >= 5) {
+    let micros = if shift >= 0 && first_dropped.is_some_and(|v| v >= 5) {
         micros.checked_add(1).ok_or(NumberError::OutOfRange)?
     } else {
         micros

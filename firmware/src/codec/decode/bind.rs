@@ -68,20 +68,27 @@ pub(super) fn joint_component(name: &[u8]) -> Option<usize> {
 }
 
 /// `X1`..`XN` → 0..N-1 (M4); no leading zeros, at most 4 digits (N ≤
-/// 1000, G3).
+/// 1000, G3). One and two digits (arrays up to 99, every one a robot has
+/// sent us) are matched directly.
 pub(super) fn array_component(name: &[u8], len: usize) -> Option<usize> {
-    let digits = name.strip_prefix(b"X")?;
-    if digits.first() == Some(&b'0') || digits.is_empty() || digits.len() > 4 {
-        return None;
-    }
-    let mut n = 0usize;
-    for &b in digits {
-        let d = b.wrapping_sub(b'0');
-        if d > 9 {
-            return None;
+    let n = match name {
+        [b'X', d @ b'1'..=b'9'] => usize::from(d - b'0'),
+        [b'X', t @ b'1'..=b'9', u @ b'0'..=b'9'] => {
+            usize::from(t - b'0') * 10 + usize::from(u - b'0')
         }
-        n = n * 10 + usize::from(d);
-    }
+        [b'X', b'1'..=b'9', rest @ ..] if rest.len() <= 3 => {
+            let mut n = 0usize;
+            for &b in name.get(1..)? {
+                let d = b.wrapping_sub(b'0');
+                if d > 9 {
+                    return None;
+                }
+                n = n * 10 + usize::from(d);
+            }
+            n
+        }
+        _ => return None,
+    };
     (1..=len).contains(&n).then(|| n - 1)
 }
 
@@ -294,4 +301,26 @@ pub(super) fn collect<'a>(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn m4_array_attribute_names_are_x1_to_xn_without_leading_zeros() {
+        let at = |s: &str, len| array_component(s.as_bytes(), len);
+        assert_eq!(at("X1", 18), Some(0));
+        assert_eq!(at("X9", 18), Some(8));
+        assert_eq!(at("X10", 18), Some(9));
+        assert_eq!(at("X18", 18), Some(17));
+        assert_eq!(at("X19", 18), None, "beyond the array");
+        assert_eq!(at("X100", 1000), Some(99));
+        assert_eq!(at("X1000", 1000), Some(999));
+        for bad in [
+            "X", "X0", "X01", "X010", "X10000", "Y1", "x1", "X1a", "X-1", "XX",
+        ] {
+            assert_eq!(at(bad, 1000), None, "{bad}");
+        }
+    }
 }
