@@ -110,7 +110,8 @@ struct Decimal<'t> {
     negative: bool,
     /// The number's while it has at most 19 digits ([`SAFE_DIGITS`]).
     mantissa: u64,
-    /// The written exponent, and the fraction digits' with it.
+    /// The written exponent with the fraction digits' in it; like
+    /// `mantissa`, the number's only while `long` is `None`.
     exponent: i32,
     /// More than 19 digits: the digits after the sign, how many there are
     /// before the point and after it (read by [`Decimal::kept`] when
