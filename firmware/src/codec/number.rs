@@ -39,7 +39,18 @@ impl core::error::Error for NumberError {}
 /// a number's cost is bounded whatever the datagram holds.
 pub const MAX_NUMBER_LEN: usize = 48;
 
-/// Strips XML whitespace (space, tab, CR, LF) from both ends.
+/// XML whitespace: space, tab, CR, LF. The one definition the number
+/// parsers and the decoder's text handling share.
+pub const fn is_xml_space(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\r' | b'\n')
+}
+
+/// [`is_xml_space`] for `str` patterns (`trim_start_matches`).
+pub fn is_xml_space_char(c: char) -> bool {
+    u8::try_from(c).is_ok_and(is_xml_space)
+}
+
+/// Strips XML whitespace ([`is_xml_space`]) from both ends.
 pub fn trim(s: &[u8]) -> &[u8] {
     // Whitespace is at most b' ': most texts have none at either end.
     if let [first, .., last] = s {
@@ -48,10 +59,16 @@ pub fn trim(s: &[u8]) -> &[u8] {
         }
     }
     let mut t = s;
-    while let [b' ' | b'\t' | b'\r' | b'\n', rest @ ..] = t {
+    while let [b, rest @ ..] = t {
+        if !is_xml_space(*b) {
+            break;
+        }
         t = rest;
     }
-    while let [rest @ .., b' ' | b'\t' | b'\r' | b'\n'] = t {
+    while let [rest @ .., b] = t {
+        if !is_xml_space(*b) {
+            break;
+        }
         t = rest;
     }
     t
@@ -60,7 +77,7 @@ pub fn trim(s: &[u8]) -> &[u8] {
 /// Only XML whitespace (or nothing): the indentation between a message's
 /// elements, which every datagram of a pretty-printing controller has.
 pub fn blank(s: &[u8]) -> bool {
-    s.iter().all(|b| matches!(b, b' ' | b'\t' | b'\r' | b'\n'))
+    s.iter().all(|&b| is_xml_space(b))
 }
 
 /// Splits off a leading sign: whether it was `-`, and the rest.

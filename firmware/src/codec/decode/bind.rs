@@ -4,7 +4,7 @@
 //! typed error on bad input.
 
 use super::error::{bump, err, DecodeError, DecodeErrorKind, Tally};
-use crate::codec::number::{parse_f32, parse_time, trim, NumberError};
+use crate::codec::number::{is_xml_space_char, parse_f32, parse_time, trim, NumberError};
 use crate::codec::text::append_decoded;
 use crate::schema::FieldMut;
 use crate::value::{RriString, Time};
@@ -291,13 +291,14 @@ pub(super) fn collect<'a>(
         c.string_truncated |= cut;
         return Ok(());
     }
-    let t = raw.trim_matches(|ch| matches!(ch, ' ' | '\t' | '\r' | '\n'));
+    // Each end trimmed once; the lead is where the value starts.
+    let from_start = raw.trim_start_matches(is_xml_space_char);
+    let t = from_start.trim_end_matches(is_xml_space_char);
     if !t.is_empty() {
         if c.piece.is_some() {
             c.fragmented = true;
         } else {
-            let lead = raw.len() - raw.trim_start_matches([' ', '\t', '\r', '\n']).len();
-            c.piece = Some((t, at + lead));
+            c.piece = Some((t, at + raw.len() - from_start.len()));
         }
     }
     Ok(())

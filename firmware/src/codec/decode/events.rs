@@ -10,7 +10,7 @@
 //! the visitor is told at most one event per token.
 
 use super::error::{err, DecodeError, DecodeErrorKind as K};
-use crate::codec::number::{parse_time, parse_u32};
+use crate::codec::number::{is_xml_space_char, parse_time, parse_u32};
 use crate::value::Time;
 use xmlparser::{ElementEnd, Token, Tokenizer};
 
@@ -71,7 +71,7 @@ pub(super) fn walk<'a, V: Visitor<'a>>(
 ) -> Result<Header, DecodeError> {
     // M1: whitespace may precede the declaration; xmlparser does not allow
     // it, so skip it and keep offsets relative to the datagram.
-    let body = text.trim_start_matches([' ', '\t', '\r', '\n']);
+    let body = text.trim_start_matches(is_xml_space_char);
     let base = text.len() - body.len();
     // 0 outside the root, 1 in the root, 2 in a child.
     let mut depth: u8 = 0;
