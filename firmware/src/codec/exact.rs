@@ -20,7 +20,7 @@
 //!    integer (the largest operand needs about 430 bits), and moved at most
 //!    a step or two. Ties round to even.
 
-use super::number::NumberError;
+use super::number::{NumberError, POW10_F64};
 use core::cmp::Ordering;
 
 /// Significant digits taken exactly (see the module doc for why 120).
@@ -281,10 +281,6 @@ fn compare(d: &Big, c: &Cut, (m, q): (u64, i32)) -> Result<Ordering, NumberError
 /// An `f64` close to `digits × 10^exponent` (a few `f64` ulps off), from
 /// the first 19 digits and exact powers of ten.
 fn approximate(c: &Cut) -> f64 {
-    const POW10: [f64; 23] = [
-        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
-        1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-    ];
     let n = c.kept.min(19);
     let mut v = c.lead as f64;
     // Within the magnitude bounds, |e| < 190: at most nine steps.
@@ -292,7 +288,7 @@ fn approximate(c: &Cut) -> f64 {
     while e != 0 {
         // `step <= 22`: always in the table (the fallback is dead).
         let step = e.unsigned_abs().min(22);
-        let p = POW10.get(step as usize).copied().unwrap_or(1.0);
+        let p = POW10_F64.get(step as usize).copied().unwrap_or(1.0);
         if e > 0 {
             v *= p;
             e -= step as i32;

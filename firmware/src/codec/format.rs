@@ -7,36 +7,39 @@
 use super::writer::Writer;
 use crate::value::Time;
 
-/// Most decimals the fixed-point writers support (time is held in µs);
-/// `POW10` below has one entry per decimal.
+/// Most decimals the fixed-point writers support (time is held in µs).
 pub use rri_vocabulary::MAX_DECIMALS;
 
-const POW10: [u64; MAX_DECIMALS as usize + 1] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
+/// 10^0 to 10^19, every power of ten a `u64` holds: the decimals' scales
+/// ([`pow10`]) and the bounds of [`digit_count`].
+#[allow(clippy::indexing_slicing)] // evaluated at compile time
+const POW10: [u64; 20] = {
+    let mut t = [1u64; 20];
+    let mut i = 1;
+    while i < 20 {
+        t[i] = t[i - 1] * 10;
+        i += 1;
+    }
+    t
+};
 
 /// Decimal digits of `v` (at least one): the bit length gives ⌊log10⌋
 /// within one (1233 / 4096 ≈ log10 2), and one comparison settles it; no
 /// division, which a Cortex-M7 has no instruction for on a `u64`.
 fn digit_count(v: u64) -> usize {
-    #[allow(clippy::indexing_slicing)] // evaluated at compile time
-    const POWERS: [u64; 20] = {
-        let mut t = [1u64; 20];
-        let mut i = 1;
-        while i < 20 {
-            t[i] = t[i - 1] * 10;
-            i += 1;
-        }
-        t
-    };
     let v = v | 1;
     let guess = (((u64::BITS - v.leading_zeros()) * 1233) >> 12) as usize;
     // `guess` ≤ 19 (64 bits × 1233 >> 12): the lookup always hits.
-    let below = POWERS.get(guess).is_some_and(|&p| v < p);
+    let below = POW10.get(guess).is_some_and(|&p| v < p);
     guess + 1 - usize::from(below)
 }
 
-/// 10^n for n ≤ 6 (larger n is clamped).
+/// 10^n for n ≤ [`MAX_DECIMALS`] (larger n is clamped).
 fn pow10(n: u8) -> u64 {
-    POW10.get(usize::from(n)).copied().unwrap_or(1_000_000)
+    POW10
+        .get(usize::from(n.min(MAX_DECIMALS)))
+        .copied()
+        .unwrap_or(1_000_000)
 }
 
 /// Digits assembled right to left in a fixed buffer: 40 bytes hold the

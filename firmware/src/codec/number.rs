@@ -116,8 +116,9 @@ pub fn parse_u32(text: &[u8]) -> Result<u32, NumberError> {
 /// Exact powers of ten in `f32` (10^10 = 2^10 × 5^10 still fits 24 bits).
 const POW10_F32: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10];
 
-/// Exact powers of ten in `f64` (up to 10^22).
-const POW10_F64: [f64; 23] = [
+/// Exact powers of ten in `f64` (up to 10^22); `codec::exact` scales by
+/// them too.
+pub(super) const POW10_F64: [f64; 23] = [
     1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
