@@ -174,6 +174,16 @@ fn m5_the_plain_path_agrees_with_the_whole_scanner() {
         b"-0",
         b"+.5",
         b"7.",
+        b".",
+        b"-",
+        b"",
+        b"-.",
+        b"1.2.3",
+        b"--1",
+        b"1-",
+        b"1.-2",
+        b"12345678901234567890",
+        b"1234567890.1234567890",
     ] {
         assert_eq!(parse_f32(text), parse_f32_general(text));
     }
