@@ -151,17 +151,26 @@ async fn send_datagram<R: RobotSet, D: DeviceSet>(
     }
 }
 
-/// Runs the UDP cycle on `port` forever: receive → engine → reply, and the
-/// engine's time-driven work every [`POLL_INTERVAL`].
-pub async fn udp_cycle<R, D, A, C, M, const RX: usize, const TX: usize>(
-    stack: Stack<'_>,
-    port: u16,
-    engine: &mut Engine<R, D>,
-    app: &mut A,
-    clock: &C,
-    buffers: &mut UdpBuffers<RX, TX>,
-    monitor: &mut M,
-) -> !
+/// The cycle task's parts, named once for both transports: the network
+/// stack and the channel port it serves, and the engine, application,
+/// clock and monitor every robot message goes through. [`Cycle::udp`] or
+/// [`Cycle::tcp`] runs it forever.
+pub struct Cycle<'c, R: RobotSet, D: DeviceSet, A, C, M> {
+    /// The board's network stack.
+    pub stack: Stack<'c>,
+    /// The channel's port (`layout::CHANNEL_PORT`, from the GSI folder).
+    pub port: u16,
+    /// The cycle engine.
+    pub engine: &'c mut Engine<R, D>,
+    /// The user's application (its outputs become the replies).
+    pub app: &'c mut A,
+    /// The device clock.
+    pub clock: &'c C,
+    /// Told of every turn of the loop, after the reply.
+    pub monitor: &'c mut M,
+}
+
+impl<R, D, A, C, M> Cycle<'_, R, D, A, C, M>
 where
     R: RobotSet,
     D: DeviceSet,
@@ -169,59 +178,193 @@ where
     C: Clock,
     M: Monitor<R, D>,
 {
-    let UdpBuffers {
-        rx,
-        tx,
-        datagram,
-        reply,
-    } = buffers;
-    let mut rx_meta = [PacketMetadata::EMPTY; RX_PACKETS];
-    let mut tx_meta = [PacketMetadata::EMPTY; QUEUE];
-    let mut socket = UdpSocket::new(
-        stack,
-        &mut rx_meta,
-        rx.as_flattened_mut(),
-        &mut tx_meta,
-        tx.as_flattened_mut(),
-    );
-    if socket.bind(port).is_err() {
-        engine.init_failed();
-        // S2: ERROR 112600 for good; keep the engine's clock-driven work
-        // alive so the state stays readable.
+    /// Runs the UDP cycle forever: receive → engine → reply, and the
+    /// engine's time-driven work every [`POLL_INTERVAL`].
+    pub async fn udp<const RX: usize, const TX: usize>(
+        self,
+        buffers: &mut UdpBuffers<RX, TX>,
+    ) -> ! {
+        let Cycle {
+            stack,
+            port,
+            engine,
+            app,
+            clock,
+            monitor,
+        } = self;
+        let UdpBuffers {
+            rx,
+            tx,
+            datagram,
+            reply,
+        } = buffers;
+        let mut rx_meta = [PacketMetadata::EMPTY; RX_PACKETS];
+        let mut tx_meta = [PacketMetadata::EMPTY; QUEUE];
+        let mut socket = UdpSocket::new(
+            stack,
+            &mut rx_meta,
+            rx.as_flattened_mut(),
+            &mut tx_meta,
+            tx.as_flattened_mut(),
+        );
+        if socket.bind(port).is_err() {
+            engine.init_failed();
+            // S2: ERROR 112600 for good; keep the engine's clock-driven work
+            // alive so the state stays readable.
+            loop {
+                Timer::after(POLL_INTERVAL).await;
+            }
+        }
+        engine.listening();
         loop {
-            Timer::after(POLL_INTERVAL).await;
+            match select(socket.recv_from(datagram), Timer::after(POLL_INTERVAL)).await {
+                Either::First(Ok((len, meta))) => {
+                    let received = clock.now();
+                    let Some(from) = endpoint(meta.endpoint) else {
+                        continue;
+                    };
+                    // The socket copied `len` bytes into `datagram`; a length
+                    // beyond it (never returned) is counted as a datagram
+                    // too long for the buffer, not handed on empty or cut.
+                    let Some(bytes) = datagram.get(..len) else {
+                        engine.datagram_too_long();
+                        continue;
+                    };
+                    let before = monitor.count();
+                    let outcome = engine.on_message(app, clock, from, bytes, received, reply);
+                    let after = monitor.count();
+                    if let Outcome::Reply { to, len } = outcome {
+                        send_datagram(&socket, engine, reply, to, len).await;
+                    }
+                    monitor.message(engine, len, &outcome, (before, after));
+                }
+                Either::First(Err(RecvError::Truncated)) => engine.datagram_too_long(),
+                Either::Second(()) => {
+                    if let Some((to, len)) = engine.poll(app, clock, reply) {
+                        send_datagram(&socket, engine, reply, to, len).await;
+                    }
+                    monitor.polled(engine);
+                }
+            }
         }
     }
-    engine.listening();
-    loop {
-        match select(socket.recv_from(datagram), Timer::after(POLL_INTERVAL)).await {
-            Either::First(Ok((len, meta))) => {
-                let received = clock.now();
-                let Some(from) = endpoint(meta.endpoint) else {
-                    continue;
-                };
-                // The socket copied `len` bytes into `datagram`; a length
-                // beyond it (never returned) is counted as a datagram
-                // too long for the buffer, not handed on empty or cut.
-                let Some(bytes) = datagram.get(..len) else {
-                    engine.datagram_too_long();
-                    continue;
-                };
-                let before = monitor.count();
-                let outcome = engine.on_message(app, clock, from, bytes, received, reply);
-                let after = monitor.count();
-                if let Outcome::Reply { to, len } = outcome {
-                    send_datagram(&socket, engine, reply, to, len).await;
-                }
-                monitor.message(engine, len, &outcome, (before, after));
+
+    /// Runs the TCP cycle forever: one controller connection served
+    /// at a time (S2: `CONNECTED` when it is accepted, `CLOSED` when it goes),
+    /// its byte stream cut into messages (M10), each answered on the same
+    /// connection. A message longer than the receive buffer is a framing
+    /// error, a reply that cannot be written a counted send error; both close
+    /// the connection. A second socket listens meanwhile: a connection that
+    /// stalls (M10, [`StallGuard`]) is closed and the waiting one served, so a
+    /// half-open connection locks the controller out for `TimeOut` at most.
+    pub async fn tcp<const SOCK: usize, const RX: usize, const TX: usize>(
+        self,
+        buffers: &mut TcpBuffers<SOCK, RX, TX>,
+    ) -> ! {
+        let Cycle {
+            stack,
+            port,
+            engine,
+            app,
+            clock,
+            monitor,
+        } = self;
+        let TcpBuffers {
+            rx,
+            tx,
+            chunk,
+            framer,
+            reply,
+        } = buffers;
+        let [rx_a, rx_b] = rx;
+        let [tx_a, tx_b] = tx;
+        let mut a = TcpSocket::new(stack, rx_a, tx_a);
+        let mut b = TcpSocket::new(stack, rx_b, tx_b);
+        let (mut served, mut standby) = (&mut a, &mut b);
+        let mut listened = false;
+        loop {
+            // Both sockets listen; serve whichever connects first.
+            if !(listen(served, port) && listen(standby, port)) {
+                engine.init_failed();
+                Timer::after(POLL_INTERVAL).await;
+                continue;
             }
-            Either::First(Err(RecvError::Truncated)) => engine.datagram_too_long(),
-            Either::Second(()) => {
-                if let Some((to, len)) = engine.poll(app, clock, reply) {
-                    send_datagram(&socket, engine, reply, to, len).await;
-                }
-                monitor.polled(engine);
+            if !listened {
+                // S2: CONNECTED once the device listens, before any controller
+                // connects (after a peer closes it stays CLOSED until the next).
+                engine.listening();
+                listened = true;
             }
+            if !connected(served) {
+                if connected(standby) {
+                    core::mem::swap(&mut served, &mut standby);
+                } else {
+                    Timer::after(POLL_INTERVAL).await;
+                    continue;
+                }
+            }
+            let Some(from) = served.remote_endpoint().and_then(endpoint) else {
+                served.abort();
+                continue;
+            };
+            engine.listening();
+            framer.reset();
+            let mut guard = StallGuard::new(engine.config().timeout_ms, clock.now());
+            let write_limit = Duration::from_millis(u64::from(engine.config().timeout_ms.max(1)));
+            'connection: loop {
+                match select(served.read(chunk), Timer::after(POLL_INTERVAL)).await {
+                    Either::First(Ok(0)) | Either::First(Err(_)) => break 'connection,
+                    Either::First(Ok(n)) => {
+                        let received = clock.now();
+                        let mut completed = false;
+                        // `read` filled the first `n` bytes; a count beyond the
+                        // chunk (never returned) breaks the connection like a
+                        // read error, instead of reading as no bytes.
+                        let Some(mut rest) = chunk.get(..n) else {
+                            break 'connection;
+                        };
+                        while !rest.is_empty() {
+                            let Some((unused, message)) = feed(framer, rest) else {
+                                engine.framing_error();
+                                break 'connection;
+                            };
+                            rest = unused;
+                            let Some(message) = message else { continue };
+                            completed = true;
+                            let bytes = message.len();
+                            let before = monitor.count();
+                            let outcome =
+                                engine.on_message(app, clock, from, message, received, reply);
+                            let after = monitor.count();
+                            if let Outcome::Reply { len, .. } = outcome {
+                                if !send_reply(served, engine, reply, len, write_limit).await {
+                                    break 'connection;
+                                }
+                            }
+                            monitor.message(engine, bytes, &outcome, (before, after));
+                        }
+                        guard.received(received, completed, framer.pending());
+                    }
+                    Either::Second(()) => {
+                        if let Some((_, len)) = engine.poll(app, clock, reply) {
+                            if !send_reply(served, engine, reply, len, write_limit).await {
+                                break 'connection;
+                            }
+                        }
+                        monitor.polled(engine);
+                    }
+                }
+                if guard.check(clock.now(), connected(standby)).is_some() {
+                    engine.stalled();
+                    break 'connection;
+                }
+            }
+            served.abort();
+            let _ = served.flush().await;
+            engine.peer_closed();
+            // The standby (listening, or already holding the next connection)
+            // is served next; this one listens again.
+            core::mem::swap(&mut served, &mut standby);
         }
     }
 }
@@ -337,127 +480,4 @@ fn connected(socket: &TcpSocket<'_>) -> bool {
         socket.state(),
         TcpState::Closed | TcpState::Listen | TcpState::SynSent | TcpState::SynReceived
     )
-}
-
-/// Runs the TCP cycle on `port` forever: one controller connection served
-/// at a time (S2: `CONNECTED` when it is accepted, `CLOSED` when it goes),
-/// its byte stream cut into messages (M10), each answered on the same
-/// connection. A message longer than the receive buffer is a framing
-/// error, a reply that cannot be written a counted send error; both close
-/// the connection. A second socket listens meanwhile: a connection that
-/// stalls (M10, [`StallGuard`]) is closed and the waiting one served, so a
-/// half-open connection locks the controller out for `TimeOut` at most.
-#[allow(clippy::too_many_arguments)]
-pub async fn tcp_cycle<R, D, A, C, M, const SOCK: usize, const RX: usize, const TX: usize>(
-    stack: Stack<'_>,
-    port: u16,
-    engine: &mut Engine<R, D>,
-    app: &mut A,
-    clock: &C,
-    buffers: &mut TcpBuffers<SOCK, RX, TX>,
-    monitor: &mut M,
-) -> !
-where
-    R: RobotSet,
-    D: DeviceSet,
-    A: Application<R, D>,
-    C: Clock,
-    M: Monitor<R, D>,
-{
-    let TcpBuffers {
-        rx,
-        tx,
-        chunk,
-        framer,
-        reply,
-    } = buffers;
-    let [rx_a, rx_b] = rx;
-    let [tx_a, tx_b] = tx;
-    let mut a = TcpSocket::new(stack, rx_a, tx_a);
-    let mut b = TcpSocket::new(stack, rx_b, tx_b);
-    let (mut served, mut standby) = (&mut a, &mut b);
-    let mut listened = false;
-    loop {
-        // Both sockets listen; serve whichever connects first.
-        if !(listen(served, port) && listen(standby, port)) {
-            engine.init_failed();
-            Timer::after(POLL_INTERVAL).await;
-            continue;
-        }
-        if !listened {
-            // S2: CONNECTED once the device listens, before any controller
-            // connects (after a peer closes it stays CLOSED until the next).
-            engine.listening();
-            listened = true;
-        }
-        if !connected(served) {
-            if connected(standby) {
-                core::mem::swap(&mut served, &mut standby);
-            } else {
-                Timer::after(POLL_INTERVAL).await;
-                continue;
-            }
-        }
-        let Some(from) = served.remote_endpoint().and_then(endpoint) else {
-            served.abort();
-            continue;
-        };
-        engine.listening();
-        framer.reset();
-        let mut guard = StallGuard::new(engine.config().timeout_ms, clock.now());
-        let write_limit = Duration::from_millis(u64::from(engine.config().timeout_ms.max(1)));
-        'connection: loop {
-            match select(served.read(chunk), Timer::after(POLL_INTERVAL)).await {
-                Either::First(Ok(0)) | Either::First(Err(_)) => break 'connection,
-                Either::First(Ok(n)) => {
-                    let received = clock.now();
-                    let mut completed = false;
-                    // `read` filled the first `n` bytes; a count beyond the
-                    // chunk (never returned) breaks the connection like a
-                    // read error, instead of reading as no bytes.
-                    let Some(mut rest) = chunk.get(..n) else {
-                        break 'connection;
-                    };
-                    while !rest.is_empty() {
-                        let Some((unused, message)) = feed(framer, rest) else {
-                            engine.framing_error();
-                            break 'connection;
-                        };
-                        rest = unused;
-                        let Some(message) = message else { continue };
-                        completed = true;
-                        let bytes = message.len();
-                        let before = monitor.count();
-                        let outcome = engine.on_message(app, clock, from, message, received, reply);
-                        let after = monitor.count();
-                        if let Outcome::Reply { len, .. } = outcome {
-                            if !send_reply(served, engine, reply, len, write_limit).await {
-                                break 'connection;
-                            }
-                        }
-                        monitor.message(engine, bytes, &outcome, (before, after));
-                    }
-                    guard.received(received, completed, framer.pending());
-                }
-                Either::Second(()) => {
-                    if let Some((_, len)) = engine.poll(app, clock, reply) {
-                        if !send_reply(served, engine, reply, len, write_limit).await {
-                            break 'connection;
-                        }
-                    }
-                    monitor.polled(engine);
-                }
-            }
-            if guard.check(clock.now(), connected(standby)).is_some() {
-                engine.stalled();
-                break 'connection;
-            }
-        }
-        served.abort();
-        let _ = served.flush().await;
-        engine.peer_closed();
-        // The standby (listening, or already holding the next connection)
-        // is served next; this one listens again.
-        core::mem::swap(&mut served, &mut standby);
-    }
 }

@@ -22,7 +22,7 @@ pub enum Stall {
 /// connection never locks the controller out for longer than `TimeOut`.
 /// A connection that only pauses between whole messages, with nobody
 /// else waiting, is kept: `SiSetCyclic` at rate 0 is legitimate. Plain
-/// clock arithmetic: the host sensor and the boards' `net::tcp_cycle` share
+/// clock arithmetic: the host sensor and the boards' `net::Cycle::tcp` share
 /// it.
 #[derive(Clone, Copy, Debug)]
 pub struct StallGuard {

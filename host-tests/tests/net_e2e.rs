@@ -1,11 +1,11 @@
 //! End to end in one process: an embassy-net (smoltcp) stack over an
 //! in-memory Ethernet driver, the boards' own UDP cycle task
-//! (`rri_firmware::net::udp_cycle`) with the demo application, and a
+//! (`rri_firmware::net::Cycle::udp`) with the demo application, and a
 //! simulated robot that exchanges real Ethernet/ARP/IPv4/UDP frames with it:
 //! 1,000 cycles, every reply checked (M8 Id echo, root, decodable fields).
 //!
 //! Time is embassy-time's mock clock, advanced by the test: deterministic.
-//! TCP (`tcp_cycle`) has its own file, `net_tcp.rs`.
+//! TCP (`Cycle::tcp`) has its own file, `net_tcp.rs`.
 
 mod memnet;
 
@@ -15,7 +15,7 @@ use host_tests::layouts::anydevice::{self as layout, SensDataMessage};
 use rri_firmware::codec::decode;
 use rri_firmware::demo::{simulated_distance, DemoApp};
 use rri_firmware::engine::{Clock, Engine, SensorState};
-use rri_firmware::net::{udp_cycle, EmbassyClock, UdpBuffers};
+use rri_firmware::net::{Cycle, EmbassyClock, UdpBuffers};
 use rri_firmware::sample::{Reading, SampleCell};
 use smoltcp::wire::{
     ArpOperation, ArpPacket, ArpRepr, EthernetAddress, EthernetFrame, EthernetProtocol,
@@ -120,7 +120,7 @@ fn robot_receive(frame: &[u8], device_ip: [u8; 4], to_device: &Frames) -> Option
     }
 }
 
-/// The boards' UDP cycle task (`udp_cycle`) with `engine` and `app` on an
+/// The boards' UDP cycle task (`Cycle::udp`) with `engine` and `app` on an
 /// embassy-net stack over a fresh in-memory Ethernet (the mock clock
 /// reset), with the link up and the socket bound. `body` gets `step(n)`,
 /// which polls the stack and the task `n` times, 10 µs of mock time each,
@@ -148,15 +148,15 @@ fn with_udp_device<A>(
     let mut buffers = UdpBuffers::<{ layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>::new();
     let mut monitor = ();
     let mut net = pin!(runner.run());
-    let mut task = pin!(udp_cycle(
+    let cycle = Cycle {
         stack,
-        layout::CHANNEL_PORT,
+        port: layout::CHANNEL_PORT,
         engine,
         app,
-        &EmbassyClock,
-        &mut buffers,
-        &mut monitor
-    ));
+        clock: &EmbassyClock,
+        monitor: &mut monitor,
+    };
+    let mut task = pin!(cycle.udp(&mut buffers));
     let mut step = |n: usize| {
         for _ in 0..n {
             assert!(poll_once(net.as_mut()).is_pending());

@@ -1,4 +1,4 @@
-//! M10 over real TCP connections: the boards' `tcp_cycle` on one
+//! M10 over real TCP connections: the boards' `Cycle::tcp` on one
 //! embassy-net stack, robots on a second stack, one in-memory Ethernet
 //! (`memnet`), embassy-time's mock clock: deterministic. Framing, a
 //! message longer than the buffer, and the hostile-world defects: a peer

@@ -84,7 +84,7 @@ fn main() -> ! {
         let mut rest = bytes;
         let mut completed = false;
         while !rest.is_empty() {
-            // As `net::tcp_cycle` does: a count beyond the bytes given
+            // As `net::Cycle::tcp` does: a count beyond the bytes given
             // (never returned) is a framing error, not an empty remainder.
             let Some((unused, message)) = framer
                 .feed(rest)

@@ -162,30 +162,30 @@ async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, 1>) -> ! {
             net::TcpBuffers<TCP_SOCKET, { layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>,
         > = ConstStaticCell::new(net::TcpBuffers::new());
         let buffers = BUFFERS.take();
-        net::tcp_cycle(
+        net::Cycle {
             stack,
-            layout::CHANNEL_PORT,
+            port: layout::CHANNEL_PORT,
             engine,
-            &mut app,
-            &EmbassyClock,
-            buffers,
-            &mut monitor,
-        )
+            app: &mut app,
+            clock: &EmbassyClock,
+            monitor: &mut monitor,
+        }
+        .tcp(buffers)
         .await
     } else {
         static BUFFERS: ConstStaticCell<
             net::UdpBuffers<{ layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>,
         > = ConstStaticCell::new(net::UdpBuffers::new());
         let buffers = BUFFERS.take();
-        net::udp_cycle(
+        net::Cycle {
             stack,
-            layout::CHANNEL_PORT,
+            port: layout::CHANNEL_PORT,
             engine,
-            &mut app,
-            &EmbassyClock,
-            buffers,
-            &mut monitor,
-        )
+            app: &mut app,
+            clock: &EmbassyClock,
+            monitor: &mut monitor,
+        }
+        .udp(buffers)
         .await
     }
 }

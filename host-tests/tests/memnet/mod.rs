@@ -1,6 +1,6 @@
 //! The in-memory Ethernet the network tests share (`mod memnet;` in each
 //! test file): a driver whose frames go to `VecDeque`s, the static IPv4
-//! configuration, and the TCP rig (the boards' `tcp_cycle` on one
+//! configuration, and the TCP rig (the boards' `Cycle::tcp` on one
 //! embassy-net stack, a robot on another, one cable between them).
 #![allow(dead_code)] // each test file uses its part
 
@@ -9,7 +9,7 @@ use embassy_net_driver::{Capabilities, Driver, HardwareAddress, LinkState, RxTok
 use embassy_time::{Duration, MockDriver};
 use host_tests::layouts::anydevice as layout;
 use rri_firmware::engine::{Application, Engine};
-use rri_firmware::net::{tcp_cycle, EmbassyClock, TcpBuffers};
+use rri_firmware::net::{Cycle, EmbassyClock, TcpBuffers};
 use smoltcp::wire::Ipv4Address;
 use std::cell::RefCell;
 use std::collections::VecDeque;
@@ -89,7 +89,7 @@ pub fn poll_once<F: Future>(f: std::pin::Pin<&mut F>) -> Poll<F::Output> {
     f.poll(&mut Context::from_waker(Waker::noop()))
 }
 
-/// The boards' TCP cycle task (`tcp_cycle`, socket buffers of 4 KiB) with
+/// The boards' TCP cycle task (`Cycle::tcp`, socket buffers of 4 KiB) with
 /// `engine` and `app` on one stack, and the robot future `robot` makes
 /// from a second stack, over a fresh in-memory Ethernet (mock clock
 /// reset). Polls all of them, 50 µs of mock time per step, until the robot
@@ -146,15 +146,15 @@ where
     let mut monitor = ();
     let mut device_net = pin!(device_runner.run());
     let mut robot_net = pin!(robot_runner.run());
-    let mut task = pin!(tcp_cycle(
-        device_stack,
-        layout::CHANNEL_PORT,
+    let cycle = Cycle {
+        stack: device_stack,
+        port: layout::CHANNEL_PORT,
         engine,
         app,
-        &EmbassyClock,
-        &mut buffers,
-        &mut monitor
-    ));
+        clock: &EmbassyClock,
+        monitor: &mut monitor,
+    };
+    let mut task = pin!(cycle.tcp(&mut buffers));
     let mut robot = pin!(robot(robot_stack));
     let mut done = false;
     for _ in 0..max_steps {
