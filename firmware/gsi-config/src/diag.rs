@@ -20,8 +20,6 @@ pub enum Rule {
     G5,
     /// Quirks of the manual's own example, accepted with a warning.
     G6,
-    /// The file is missing or unreadable.
-    Io,
     /// The file is not well-formed XML.
     Xml,
 }
@@ -35,7 +33,6 @@ impl fmt::Display for Rule {
             Rule::G4 => "G4",
             Rule::G5 => "G5",
             Rule::G6 => "G6",
-            Rule::Io => "io",
             Rule::Xml => "xml",
         })
     }

@@ -57,11 +57,12 @@ pub fn is_xml_name(s: &str) -> bool {
         && !s.to_ascii_lowercase().starts_with("xml")
 }
 
-/// Case-insensitive keyword match, returning the canonical spelling's index.
+/// The value `table` gives the keyword `value` ([`rri_vocabulary::is_keyword`]:
+/// any case, around whitespace).
 pub fn keyword<T: Copy>(value: &str, table: &[(&str, T)]) -> Option<T> {
     table
         .iter()
-        .find(|(k, _)| k.eq_ignore_ascii_case(value.trim()))
+        .find(|(k, _)| rri_vocabulary::is_keyword(value, k))
         .map(|(_, v)| *v)
 }
 

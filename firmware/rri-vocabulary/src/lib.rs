@@ -19,7 +19,7 @@ mod words;
 
 pub use address::parse_ipv4;
 pub use values::{parse_bool, Format, FALSE, MAX_DECIMALS, TRUE};
-pub use words::{ControllerPort, Direction, Protocol};
+pub use words::{is_keyword, ControllerPort, Direction, Protocol};
 
 /// Longest RAPID symbol the controller accepts, in characters (G4): names
 /// of enums, records, fields and properties.

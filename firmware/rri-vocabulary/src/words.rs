@@ -2,13 +2,16 @@
 //! needs: each is one Rust type with its GSI spelling, so the compiler that
 //! reads the files and the firmware that acts on them cannot disagree.
 
-/// Finds the member of `all` whose GSI spelling is `text`: GSI keywords
-/// match in any case, around whitespace (G2, G3).
+/// Whether the attribute value `text` is the GSI keyword `word`: keywords
+/// match in any case, around whitespace (G2, G3). The one definition, for
+/// these types and gsi-config's other keywords alike.
+pub fn is_keyword(text: &str, word: &str) -> bool {
+    word.eq_ignore_ascii_case(text.trim())
+}
+
+/// Finds the member of `all` whose GSI spelling is `text` ([`is_keyword`]).
 fn from_gsi<T: Copy>(all: &[T], spell: fn(T) -> &'static str, text: &str) -> Option<T> {
-    let text = text.trim();
-    all.iter()
-        .copied()
-        .find(|w| spell(*w).eq_ignore_ascii_case(text))
+    all.iter().copied().find(|w| is_keyword(text, spell(*w)))
 }
 
 /// Transport of the cyclic channel (G2, Description.xml
@@ -186,6 +189,14 @@ mod tests {
         for d in Direction::ALL {
             assert_eq!(Direction::from_flag(d.flag()), Some(d));
         }
+    }
+
+    #[test]
+    fn g2_g3_keywords_match_in_any_case_around_whitespace() {
+        assert!(is_keyword(" cdp\t", "CDP"));
+        assert!(is_keyword("Cyclic", "cyclic"));
+        assert!(!is_keyword("Cyc lic", "Cyclic"));
+        assert!(!is_keyword("", "Intern"));
     }
 
     #[test]
