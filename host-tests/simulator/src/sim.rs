@@ -174,27 +174,31 @@ impl<'a> Sim<'a> {
     pub(crate) fn finish(self, sends: &[(&Property, u32)]) -> (Summary, Vec<Cycle>, Vec<Packet>) {
         let mut s = self.s;
         let cycles = self.cycles;
-        s.lost = cycles
-            .iter()
-            .filter(|c| !c.dropped_by_fault && c.reply_us.is_none())
-            .count() as u64;
+        // One pass: per sent property, its messages (those a fault did not
+        // drop), the answered and the lost ones; and the lost in all.
+        let mut per = vec![(0u64, 0u64, 0u64); sends.len()];
+        s.lost = 0;
+        for c in &cycles {
+            let lost = !c.dropped_by_fault && c.reply_us.is_none();
+            s.lost += u64::from(lost);
+            if let Some((messages, answered, lost_here)) = per.get_mut(c.property) {
+                *messages += u64::from(!c.dropped_by_fault);
+                *answered += u64::from(c.reply_us.is_some());
+                *lost_here += u64::from(lost);
+            }
+        }
         s.latency_us = Latency::of(cycles.iter().filter_map(Cycle::latency_us).collect());
         s.supervision_tripped = self.sup.tripped;
         s.properties = sends
             .iter()
-            .enumerate()
-            .map(|(which, (p, ms))| {
-                let mine = || cycles.iter().filter(move |c| c.property == which);
-                PropertyFigures {
-                    name: p.name.clone(),
-                    direction: "sent".into(),
-                    period_ms: Some(*ms),
-                    messages: mine().filter(|c| !c.dropped_by_fault).count() as u64,
-                    answered: mine().filter(|c| c.reply_us.is_some()).count() as u64,
-                    lost: mine()
-                        .filter(|c| !c.dropped_by_fault && c.reply_us.is_none())
-                        .count() as u64,
-                }
+            .zip(per)
+            .map(|((p, ms), (messages, answered, lost))| PropertyFigures {
+                name: p.name.clone(),
+                direction: "sent".into(),
+                period_ms: Some(*ms),
+                messages,
+                answered,
+                lost,
             })
             .collect();
         for p in self.device.sent() {
