@@ -313,11 +313,19 @@ fn main() -> ExitCode {
                 b as f64 / o.max(1) as f64
             );
             // What we add on top of the tokenizer, the figure issue 11
-            // targets (<= 1.45x); printed, not asserted.
+            // targets (<= 1.45x); printed, not asserted. Three decimals, so
+            // 1.454 does not read as 1.45, and what meeting 1.45 would take.
+            let target = t * 145 / 100;
             println!(
-                "  {:>8.2}x    xmlparser alone (ours = tokenizing + {} Ir/message of our own)",
+                "  {:>8.3}x    xmlparser alone (ours = tokenizing + {} Ir/message of our own; 1.45x is {} Ir, {})",
                 o as f64 / t.max(1) as f64,
-                o.saturating_sub(t)
+                o.saturating_sub(t),
+                target,
+                if o <= target {
+                    "met".to_string()
+                } else {
+                    format!("{} over", o - target)
+                }
             );
         }
         return ExitCode::SUCCESS;
