@@ -14,5 +14,18 @@ pub mod number;
 pub mod text;
 pub mod writer;
 
+/// The unit tests' one source of pseudo-random inputs: xorshift64, so a
+/// failing input is the same on every run.
+#[cfg(test)]
+fn xorshift64(seed: u64) -> impl FnMut() -> u64 {
+    let mut x = seed;
+    move || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x
+    }
+}
+
 pub use decode::{decode, DecodeError, DecodeErrorKind, Decoded, Tally, EXTRA_ITEMS};
 pub use encode::{encode, BufferTooSmall, Encoded};

@@ -41,13 +41,7 @@ fn m5_reals_parse_in_any_decimal_notation() {
 fn m5_fast_paths_round_exactly_like_core() {
     // core's parser is the oracle: correctly rounded. Texts of every
     // shape the fast paths take or refuse.
-    let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut next = || {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        x
-    };
+    let mut next = crate::codec::xorshift64(0x9E37_79B9_7F4A_7C15);
     for _ in 0..300_000 {
         let r = next();
         let digits = 1 + (r % 20) as usize;
@@ -142,11 +136,9 @@ fn m5_the_plain_path_agrees_with_the_whole_scanner() {
     // Texts the plain path takes (sign, up to 19 digits, a point) and
     // some it hands on (whitespace, exponent, 20 digits): both paths
     // give the same bits, or the same error.
-    let mut x: u64 = 0x2545_F491_4F6C_DD1D;
+    let mut next = crate::codec::xorshift64(0x2545_F491_4F6C_DD1D);
     for _ in 0..100_000 {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
+        let x = next();
         let digits = 1 + (x % 20) as usize;
         let mut text = String::new();
         match (x >> 8) % 4 {
