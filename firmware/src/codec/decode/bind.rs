@@ -7,7 +7,7 @@ use super::error::{bump, err, DecodeError, DecodeErrorKind, Tally};
 use crate::codec::number::{is_xml_space_char, parse_f32, parse_time, trim, NumberError};
 use crate::codec::text::append_decoded;
 use crate::schema::FieldMut;
-use crate::value::{RriString, Time};
+use crate::value::{Frame, RriString, Time};
 
 /// Where text and attributes currently go.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -46,17 +46,17 @@ impl<'a> Collected<'a> {
     }
 }
 
-/// The component index of a frame attribute (M4).
-pub(super) fn frame_component(name: &[u8]) -> Option<usize> {
-    match name {
-        b"X" => Some(0),
-        b"Y" => Some(1),
-        b"Z" => Some(2),
-        b"Rx" => Some(3),
-        b"Ry" => Some(4),
-        b"Rz" => Some(5),
-        _ => None,
-    }
+/// The value a frame's attribute `X Y Z Rx Ry Rz` sets (M4).
+fn frame_slot<'f>(f: &'f mut Frame, name: &[u8]) -> Option<&'f mut f32> {
+    Some(match name {
+        b"X" => &mut f.x,
+        b"Y" => &mut f.y,
+        b"Z" => &mut f.z,
+        b"Rx" => &mut f.rx,
+        b"Ry" => &mut f.ry,
+        b"Rz" => &mut f.rz,
+        _ => return None,
+    })
 }
 
 /// `J1`..`J6` → 0..5 (M4).
@@ -132,20 +132,10 @@ pub(super) fn set_component(
     tally: &mut Tally,
 ) -> Result<bool, DecodeError> {
     match field {
-        FieldMut::Frame(f) => {
-            let Some(i) = frame_component(name) else {
-                return Ok(false);
-            };
-            let v = real(value, at)?;
-            match i {
-                0 => f.x = v,
-                1 => f.y = v,
-                2 => f.z = v,
-                3 => f.rx = v,
-                4 => f.ry = v,
-                _ => f.rz = v,
-            }
-        }
+        FieldMut::Frame(f) => match frame_slot(f, name) {
+            Some(slot) => *slot = real(value, at)?,
+            None => return Ok(false),
+        },
         FieldMut::Joints(j) => match joint_component(name).and_then(|i| j.get_mut(i)) {
             Some(slot) => *slot = real(value, at)?,
             None => return Ok(false),
@@ -198,13 +188,15 @@ pub(super) fn components(field: &FieldMut<'_>) -> Option<usize> {
     }
 }
 
-/// Completes a value slot at its end tag.
+/// Completes a value slot at its end tag; `components` is
+/// [`components`] of `field`, found when the slot opened.
 pub(super) fn finish_slot(
     field: FieldMut<'_>,
+    components: Option<usize>,
     c: &mut Collected<'_>,
     tally: &mut Tally,
 ) -> Result<(), DecodeError> {
-    if let Some(n) = components(&field) {
+    if let Some(n) = components {
         if c.piece.is_some() {
             // Text where attributes were expected: the real IRC5's
             // `<AppData>0</AppData>`.

@@ -99,6 +99,9 @@ struct Binder<'a, 'd, M: MessageCodec> {
     seen: u64,
     /// What the open slot has collected.
     c: Collected<'a>,
+    /// How many attributes the open slot has (`None`: it takes text),
+    /// found once when it opens rather than at each attribute.
+    components: Option<usize>,
     tally: Tally,
     /// Items the layout does not account for, and how many are allowed.
     extras: Extras,
@@ -110,8 +113,13 @@ impl<'a, 'd, M: MessageCodec> Binder<'a, 'd, M> {
 
     #[inline(always)]
     fn new(data: &'d mut M::Data) -> Self {
+        let components = match Self::root_target() {
+            Target::Slot(i) => M::field_mut(data, i).as_ref().and_then(components),
+            Target::None => None,
+        };
         Binder {
             data,
+            components,
             target: Self::root_target(),
             seen: 0,
             c: Collected::new(),
@@ -151,7 +159,7 @@ impl<'a, 'd, M: MessageCodec> Binder<'a, 'd, M> {
     #[inline(always)]
     fn finish_slot(&mut self, i: usize) -> Result<(), DecodeError> {
         match M::field_mut(self.data, i) {
-            Some(field) => finish_slot(field, &mut self.c, &mut self.tally),
+            Some(field) => finish_slot(field, self.components, &mut self.c, &mut self.tally),
             None => Ok(()),
         }
     }
@@ -168,6 +176,7 @@ impl<'a, M: MessageCodec> Visitor<'a> for Binder<'a, '_, M> {
                 }
                 self.seen |= bit;
                 self.c = Collected::new();
+                self.components = M::field_mut(self.data, i).as_ref().and_then(components);
                 Target::Slot(i)
             }
             _ => {
@@ -195,7 +204,7 @@ impl<'a, M: MessageCodec> Visitor<'a> for Binder<'a, '_, M> {
                 Some(field) if prefix.is_empty() => {
                     // A value's attributes beyond its count (a repeated
                     // `X="…"`) are extras: each would be parsed again.
-                    if components(&field).is_some_and(|n| self.c.assigned >= n) {
+                    if self.components.is_some_and(|n| self.c.assigned >= n) {
                         self.extras.add(at)?;
                     }
                     let known = set_component(field, name.as_bytes(), value, at, &mut self.tally)?;
