@@ -1,5 +1,7 @@
-//! The bench's figures: computed from what the two boots measured,
-//! printed, written to `target/qemu-bench/` and gated on the baseline.
+//! The bench's figures, in four steps: computed from what the two boots
+//! measured ([`Figures::of`]), printed ([`print`]), written to
+//! `target/qemu-bench/` ([`write_files`]) and gated on the baseline
+//! ([`gate`]).
 
 use crate::run::MIN_STACK_MARGIN_PERCENT;
 use crate::{
@@ -12,72 +14,127 @@ use serde_json::json;
 /// Prints every figure, writes the summary, log and histogram files, and
 /// returns whether the gated figures passed.
 pub fn report(args: &Args, m: &Measured, fl: &Flooded) -> Result<bool, String> {
-    // Figures.
-    let mut compute: Vec<u64> = m
-        .sim_records
-        .iter()
-        .map(|r| instructions(r.compute))
-        .collect();
-    let mut full: Vec<u64> = m
-        .sim_records
-        .iter()
-        .filter(|r| r.answered)
-        .map(|r| instructions(r.full))
-        .collect();
-    for (_, rows) in &m.realistic {
-        compute.extend(rows.iter().map(|r| instructions(r.compute)));
-        full.extend(
-            rows.iter()
-                .filter(|r| r.answered)
-                .map(|r| instructions(r.full)),
-        );
-    }
-    let compute = Spread::of(compute);
-    let full = Spread::of(full);
-    // Late as the device measures it (deterministic): a full path longer
-    // than one 4 ms cycle at 216 MHz. The simulator's own "late" is host
-    // wall-clock time through slirp, reported but not gated.
-    let late_device = m
-        .sim_records
-        .iter()
-        .filter(|r| r.answered && instructions(r.full) > CYCLE_AT_216MHZ)
-        .count() as u64;
-    let f = &fl.driven.summary;
-    // Gated: the deterministic run. Under the flood (real time) a wrong or
-    // malformed reply fails too; lost datagrams there are reported, not
-    // gated: they never reach the engine (its Id gaps) and depend on how
-    // QEMU is scheduled on the host.
-    let missed = m.summary.lost
-        + m.summary.wrong_id
-        + m.summary.malformed
-        + late_device
-        + f.wrong_id
-        + f.malformed;
-    let hostile_cost = |rows: &[Record]| -> u64 {
-        rows.iter()
-            .map(|r| {
-                instructions(if r.answered {
-                    r.full.max(r.compute)
-                } else {
-                    r.compute
-                })
-            })
-            .max()
-            .unwrap_or(0)
-    };
-    let hostile_max = m
-        .hostile
-        .iter()
-        .map(|(_, r)| hostile_cost(r))
-        .max()
-        .unwrap_or(0);
-    let baseline_median = m
-        .codec
-        .iter()
-        .find(|c| c.0 == "manual")
-        .map(|c| u64::from(c.4) * INSTRUCTIONS_PER_COUNT)
-        .unwrap_or(0);
+    let figures = Figures::of(m, fl);
+    print(args, m, fl, &figures);
+    write_files(m, fl, &figures)?;
+    gate(args, &figures)
+}
 
+/// What the report says, computed once from the two boots.
+struct Figures {
+    /// Instructions per cycle: message in to reply composed, and message
+    /// in to reply sent (answered cycles only), over the simulator run
+    /// and the realistic inputs.
+    compute: Spread,
+    full: Spread,
+    /// Late as the device measures it (deterministic): a full path longer
+    /// than one 4 ms cycle at 216 MHz. The simulator's own "late" is host
+    /// wall-clock time through slirp, reported but not gated.
+    late_device: u64,
+    /// Replies lost, wrong or late in the deterministic run, wrong or
+    /// malformed under the flood.
+    missed: u64,
+    /// Each hostile input's worst cost, in `m.hostile`'s order, and the
+    /// worst of them.
+    hostile: Vec<u64>,
+    hostile_max: u64,
+    /// The in-guest codec's cost on the manual's message.
+    baseline_median: u64,
+    /// Stack: start-up, running, budget (bytes) and the margin left (%).
+    stack: (u64, u64, u64),
+    stack_margin: u64,
+}
+
+impl Figures {
+    fn of(m: &Measured, fl: &Flooded) -> Self {
+        let mut compute: Vec<u64> = m
+            .sim_records
+            .iter()
+            .map(|r| instructions(r.compute))
+            .collect();
+        let mut full: Vec<u64> = m
+            .sim_records
+            .iter()
+            .filter(|r| r.answered)
+            .map(|r| instructions(r.full))
+            .collect();
+        for (_, rows) in &m.realistic {
+            compute.extend(rows.iter().map(|r| instructions(r.compute)));
+            full.extend(
+                rows.iter()
+                    .filter(|r| r.answered)
+                    .map(|r| instructions(r.full)),
+            );
+        }
+        let late_device = m
+            .sim_records
+            .iter()
+            .filter(|r| r.answered && instructions(r.full) > CYCLE_AT_216MHZ)
+            .count() as u64;
+        let f = &fl.driven.summary;
+        // Gated: the deterministic run. Under the flood (real time) a wrong
+        // or malformed reply fails too; lost datagrams there are reported,
+        // not gated: they never reach the engine (its Id gaps) and depend
+        // on how QEMU is scheduled on the host.
+        let missed = m.summary.lost
+            + m.summary.wrong_id
+            + m.summary.malformed
+            + late_device
+            + f.wrong_id
+            + f.malformed;
+        let hostile: Vec<u64> = m.hostile.iter().map(|(_, r)| hostile_cost(r)).collect();
+        let hostile_max = hostile.iter().copied().max().unwrap_or(0);
+        let baseline_median = m
+            .codec
+            .iter()
+            .find(|c| c.0 == "manual")
+            .map(|c| u64::from(c.4) * INSTRUCTIONS_PER_COUNT)
+            .unwrap_or(0);
+        let (stack_boot, stack_running, stack_size) = m.stack;
+        let stack_used = stack_boot.max(stack_running);
+        let stack_margin = (stack_size - stack_used.min(stack_size)) * 100 / stack_size.max(1);
+        Figures {
+            compute: Spread::of(compute),
+            full: Spread::of(full),
+            late_device,
+            missed,
+            hostile,
+            hostile_max,
+            baseline_median,
+            stack: m.stack,
+            stack_margin,
+        }
+    }
+
+    /// The figures the baseline file holds.
+    fn gated(&self) -> Gated {
+        Gated {
+            compute_median: self.compute.median,
+            compute_max: self.compute.max,
+            full_median: self.full.median,
+            hostile_max: self.hostile_max,
+        }
+    }
+}
+
+/// A hostile input's cost: the longer of its compute and full paths where
+/// it was answered, its compute path where it was rejected.
+fn hostile_cost(rows: &[Record]) -> u64 {
+    rows.iter()
+        .map(|r| {
+            instructions(if r.answered {
+                r.full.max(r.compute)
+            } else {
+                r.compute
+            })
+        })
+        .max()
+        .unwrap_or(0)
+}
+
+/// Every figure, on stdout.
+fn print(args: &Args, m: &Measured, fl: &Flooded, x: &Figures) {
+    let f = &fl.driven.summary;
     println!("\n== codec on Thumb-2, instructions per message (decode + encode; in-guest, interrupts masked)");
     println!(
         "  {:<8} {:>6} {:>10} {:>16} {:>18} {:>8}",
@@ -108,8 +165,8 @@ pub fn report(args: &Args, m: &Measured, fl: &Flooded) -> Result<bool, String> {
             s.max as f64 / 480.0
         );
     };
-    row("compute", &compute);
-    row("full", &full);
+    row("compute", &x.compute);
+    row("full", &x.full);
     for (input, rows) in &m.realistic {
         let c = Spread::of(rows.iter().map(|r| instructions(r.compute)).collect());
         let f = Spread::of(rows.iter().map(|r| instructions(r.full)).collect());
@@ -123,7 +180,7 @@ pub fn report(args: &Args, m: &Measured, fl: &Flooded) -> Result<bool, String> {
     }
     println!(
         "  robot: sent {} answered {} lost {} wrong Id {} malformed {}; late: {} by the device's count, {} by the host's wall clock through slirp",
-        m.summary.sent, m.summary.answered, m.summary.lost, m.summary.wrong_id, m.summary.malformed, late_device, m.summary.late,
+        m.summary.sent, m.summary.answered, m.summary.lost, m.summary.wrong_id, m.summary.malformed, x.late_device, m.summary.late,
     );
     println!("  device: {}", m.counters);
     println!(
@@ -137,9 +194,7 @@ pub fn report(args: &Args, m: &Measured, fl: &Flooded) -> Result<bool, String> {
         host_tests::layouts::anydevice::MAX_RECEIVE_LEN,
         args.repeat
     );
-    let mut hostile_json = Vec::new();
-    for (input, rows) in &m.hostile {
-        let worst = hostile_cost(rows);
+    for ((input, _), worst) in m.hostile.iter().zip(&x.hostile) {
         println!(
             "  {:<28} {:<9} worst {:>8} instructions = {:>5.1} per byte",
             input.name,
@@ -149,43 +204,48 @@ pub fn report(args: &Args, m: &Measured, fl: &Flooded) -> Result<bool, String> {
                 "rejected"
             },
             worst,
-            worst as f64 / input.len() as f64
+            *worst as f64 / input.len() as f64
         );
-        hostile_json.push(json!({"name": input.name, "bytes": input.len(), "answered": input.accepted, "worst": worst, "per_byte": worst as f64 / input.len() as f64}));
     }
     println!(
-        "  worst {hostile_max} instructions ({:.0} µs @216 MHz; budget 216,000 = a quarter cycle)",
-        hostile_max as f64 / 216.0
+        "  worst {} instructions ({:.0} µs @216 MHz; budget 216,000 = a quarter cycle)",
+        x.hostile_max,
+        x.hostile_max as f64 / 216.0
     );
-    let (stack_boot, stack_running, stack_size) = m.stack;
-    let stack_used = stack_boot.max(stack_running);
-    let stack_margin = (stack_size - stack_used.min(stack_size)) * 100 / stack_size.max(1);
+    let (stack_boot, stack_running, stack_size) = x.stack;
     println!(
-        "\n== stack (painted; thread mode and every interrupt share the one main stack)\n  start-up {stack_boot} bytes (building the network stack), running {stack_running} bytes (after the bench and the hostile inputs), of a {stack_size}-byte budget: {stack_margin}% margin (fails under {MIN_STACK_MARGIN_PERCENT}%)"
+        "\n== stack (painted; thread mode and every interrupt share the one main stack)\n  start-up {stack_boot} bytes (building the network stack), running {stack_running} bytes (after the bench and the hostile inputs), of a {stack_size}-byte budget: {}% margin (fails under {MIN_STACK_MARGIN_PERCENT}%)",
+        x.stack_margin
     );
     println!("\nQEMU counts instructions, not cycles: no caches, flash wait states, bus contention or Ethernet DMA are modelled; µs figures assume one instruction per cycle.");
+}
 
-    let gated = Gated {
-        compute_median: compute.median,
-        compute_max: compute.max,
-        full_median: full.median,
-        hostile_max,
-    };
+/// `summary.json`, both device logs and `histogram.svg` under
+/// `target/qemu-bench/`.
+fn write_files(m: &Measured, fl: &Flooded, x: &Figures) -> Result<(), String> {
+    let f = &fl.driven.summary;
     let dir = qemu::target_dir().join("qemu-bench");
     std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let hostile_json: Vec<_> = m
+        .hostile
+        .iter()
+        .zip(&x.hostile)
+        .map(|((input, _), worst)| json!({"name": input.name, "bytes": input.len(), "answered": input.accepted, "worst": worst, "per_byte": *worst as f64 / input.len() as f64}))
+        .collect();
+    let (stack_boot, stack_running, stack_size) = x.stack;
     let summary_json = json!({
         "shift": SHIFT,
         "cycles": m.summary.sent,
-        "missed": missed,
-        "late": late_device,
+        "missed": x.missed,
+        "late": x.late_device,
         "late_host_wall_clock": m.summary.late,
         "lost": m.summary.lost,
-        "compute": compute,
-        "full": full,
-        "hostile_max": hostile_max,
+        "compute": x.compute,
+        "full": x.full,
+        "hostile_max": x.hostile_max,
         "hostile": hostile_json,
-        "stack": {"boot": stack_boot, "running": stack_running, "budget": stack_size, "margin_percent": stack_margin},
-        "baseline_compute_median": baseline_median,
+        "stack": {"boot": stack_boot, "running": stack_running, "budget": stack_size, "margin_percent": x.stack_margin},
+        "baseline_compute_median": x.baseline_median,
         "codec": m.codec.iter().map(|(n, b, o, t, base)| json!({"message": n, "bytes": b,
             "ours": u64::from(*o) * INSTRUCTIONS_PER_COUNT, "tokenizer": u64::from(*t) * INSTRUCTIONS_PER_COUNT,
             "baseline": u64::from(*base) * INSTRUCTIONS_PER_COUNT})).collect::<Vec<_>>(),
@@ -214,7 +274,13 @@ pub fn report(args: &Args, m: &Measured, fl: &Flooded) -> Result<bool, String> {
             .collect::<Vec<_>>(),
     )?;
     println!("\nwrote {} and {}", path.display(), svg.display());
+    Ok(())
+}
 
+/// Updates the baseline file when asked, then fails on missed replies, a
+/// thin stack margin or a gated figure more than 5 % over the baseline.
+fn gate(args: &Args, x: &Figures) -> Result<bool, String> {
+    let gated = x.gated();
     let baseline_path = host_tests::workspace().join(&args.baseline);
     if args.update_baseline {
         std::fs::write(
@@ -225,12 +291,15 @@ pub fn report(args: &Args, m: &Measured, fl: &Flooded) -> Result<bool, String> {
         println!("baseline updated: {}", baseline_path.display());
     }
     let mut ok = true;
-    if missed > 0 {
-        println!("FAIL: {missed} replies missed, late or wrong");
+    if x.missed > 0 {
+        println!("FAIL: {} replies missed, late or wrong", x.missed);
         ok = false;
     }
-    if stack_margin < MIN_STACK_MARGIN_PERCENT {
-        println!("FAIL: stack margin {stack_margin}% is under {MIN_STACK_MARGIN_PERCENT}%");
+    if x.stack_margin < MIN_STACK_MARGIN_PERCENT {
+        println!(
+            "FAIL: stack margin {}% is under {MIN_STACK_MARGIN_PERCENT}%",
+            x.stack_margin
+        );
         ok = false;
     }
     match std::fs::read_to_string(&baseline_path) {
