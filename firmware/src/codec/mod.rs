@@ -14,7 +14,7 @@ pub mod number;
 pub mod text;
 pub mod writer;
 
-/// The unit tests' one source of pseudo-random inputs: xorshift64, so a
+/// The unit tests' source of pseudo-random inputs: xorshift64, so a
 /// failing input is the same on every run.
 #[cfg(test)]
 fn xorshift64(seed: u64) -> impl FnMut() -> u64 {
@@ -24,6 +24,19 @@ fn xorshift64(seed: u64) -> impl FnMut() -> u64 {
         x ^= x >> 7;
         x ^= x << 17;
         x
+    }
+}
+
+/// [`xorshift64`]'s 32-bit sibling (13, 17, 5), for random `f32` bit
+/// patterns.
+#[cfg(test)]
+fn xorshift32(seed: u32) -> impl FnMut() -> u32 {
+    let mut y = seed;
+    move || {
+        y ^= y << 13;
+        y ^= y >> 17;
+        y ^= y << 5;
+        y
     }
 }
 
