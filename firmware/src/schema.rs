@@ -145,9 +145,6 @@ pub trait MessageCodec: Message {
     /// For [`Body::Record`], the record's fields; for [`Body::Value`], one
     /// entry whose `name` is empty.
     const FIELDS: &'static [FieldWire];
-    /// ` X1="`, ` X2="`, …: attribute openers of array elements (M4),
-    /// precomputed for the longest array of the layout.
-    const ARRAY_ATTRS: &'static [&'static [u8]] = &[];
     /// [`Record::field_index`] of the message's record; always `None` for
     /// a [`Body::Value`], which has no child elements.
     fn field_index(name: &[u8]) -> Option<usize>;

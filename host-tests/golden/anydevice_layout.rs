@@ -280,7 +280,6 @@ impl MessageCodec for RobDataMessage {
     const BODY: Body = Body::Record;
     const OPEN: &'static [u8] = b"<RobData Id=\"";
     const CLOSE: &'static [u8] = b"</RobData>";
-    const ARRAY_ATTRS: &'static [&'static [u8]] = &ARRAY_ATTRS;
     const FIELDS: &'static [FieldWire] = <RobotData as Record>::FIELDS;
 
     fn field_index(name: &[u8]) -> Option<usize> {
@@ -315,7 +314,6 @@ impl MessageCodec for SensDataMessage {
     const BODY: Body = Body::Record;
     const OPEN: &'static [u8] = b"<SensData Id=\"";
     const CLOSE: &'static [u8] = b"</SensData>";
-    const ARRAY_ATTRS: &'static [&'static [u8]] = &ARRAY_ATTRS;
     const FIELDS: &'static [FieldWire] = <SensorData as Record>::FIELDS;
 
     fn field_index(name: &[u8]) -> Option<usize> {
@@ -330,30 +328,6 @@ impl MessageCodec for SensDataMessage {
         data.field_mut(index)
     }
 }
-
-/// Attribute openers of array elements, ` X1="` … (M4), precomputed up to the
-/// longest array of this layout.
-#[rustfmt::skip]
-pub const ARRAY_ATTRS: [&[u8]; 18] = [
-    b" X1=\"",
-    b" X2=\"",
-    b" X3=\"",
-    b" X4=\"",
-    b" X5=\"",
-    b" X6=\"",
-    b" X7=\"",
-    b" X8=\"",
-    b" X9=\"",
-    b" X10=\"",
-    b" X11=\"",
-    b" X12=\"",
-    b" X13=\"",
-    b" X14=\"",
-    b" X15=\"",
-    b" X16=\"",
-    b" X17=\"",
-    b" X18=\"",
-];
 
 /// Root element names of the messages the controller sends to the device.
 pub const RECEIVED: [&str; 1] = ["RobData"];

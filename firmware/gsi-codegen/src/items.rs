@@ -275,7 +275,6 @@ pub(crate) fn emit_message(
         "const CLOSE: &'static [u8] = {};",
         emit::bytes_lit(&format!("</{w}>"))
     ));
-    e.line("const ARRAY_ATTRS: &'static [&'static [u8]] = &ARRAY_ATTRS;");
     match p.ty {
         TypeRef::Record(r) => {
             let rec = &id.records[r];

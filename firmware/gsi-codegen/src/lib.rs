@@ -26,7 +26,7 @@ use gsi_config::{Device, Diagnostic, Pos, Rule, SimpleType, TypeRef};
 use items::{emit_enum, emit_message, emit_record};
 use resolve::{diag, idents};
 use rri_vocabulary::Format;
-use settings::{emit_array_attrs, emit_settings, emit_totals};
+use settings::{emit_settings, emit_totals};
 
 /// Build-time choices that are not in the GSI files.
 #[derive(Clone, Debug)]
@@ -219,8 +219,6 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
         e.blank();
         emit_message(&mut e, device, &id, i, p, message_sizes[i]);
     }
-    e.blank();
-    emit_array_attrs(&mut e, device);
     e.blank();
     emit_totals(&mut e, device, &id, &message_sizes, opts);
     Ok(e.finish())

@@ -2,7 +2,7 @@
 //! number settings, the array attribute openers, and the totals (buffer
 //! sizes, the engine configuration) every buffer of the firmware is sized by.
 
-use crate::emit::{self, str_lit, Emitter};
+use crate::emit::{str_lit, Emitter};
 use crate::resolve::Idents;
 use crate::sets;
 use crate::Options;
@@ -113,32 +113,6 @@ pub(crate) fn emit_settings(e: &mut Emitter, d: &Device, f: Format, opts: &Optio
     e.line("periodic: &PERIODIC,");
     e.line("format: FORMAT,");
     e.close(";");
-}
-
-/// The ` X<i>="` attribute openers of arrays (M4) up to the longest array
-/// of the layout, so the encoder copies them instead of formatting indices.
-pub(crate) fn emit_array_attrs(e: &mut Emitter, d: &Device) {
-    let sizes = d
-        .records
-        .iter()
-        .flat_map(|r| r.fields.iter().map(|f| f.size));
-    let longest = sizes
-        .chain(d.properties.iter().map(|p| p.size))
-        .flatten()
-        .max()
-        .unwrap_or(0);
-    e.doc("Attribute openers of array elements, ` X1=\"` … (M4), precomputed up to the");
-    e.doc("longest array of this layout.");
-    e.line("#[rustfmt::skip]");
-    if longest == 0 {
-        e.line("pub const ARRAY_ATTRS: [&[u8]; 0] = [];");
-        return;
-    }
-    e.line(format!("pub const ARRAY_ATTRS: [&[u8]; {longest}] = ["));
-    for i in 1..=longest {
-        e.line(format!("    {},", emit::bytes_lit(&format!(" X{i}=\""))));
-    }
-    e.line("];");
 }
 
 pub(crate) fn emit_totals(

@@ -8,6 +8,7 @@
 //! `MAX_ENCODED_LEN`, encoding cannot run out of space; a smaller buffer is
 //! an error, never an overrun.
 
+use super::format::digit_pair;
 use super::text::write_escaped;
 use super::writer::Writer;
 use crate::schema::{Body, FieldRef, Format, MessageCodec};
@@ -46,8 +47,6 @@ struct Out<'w, 'b> {
     w: &'w mut Writer<'b>,
     format: Format,
     non_finite: u16,
-    /// The layout's precomputed ` X<i>="` pieces.
-    array_attrs: &'static [&'static [u8]],
 }
 
 impl Out<'_, '_> {
@@ -69,17 +68,29 @@ impl Out<'_, '_> {
         write_escaped(self.w, s.as_str());
     }
 
-    /// ` X<i>="` for array element `i` (0-based): precomputed by the build
-    /// script; written digit by digit only if a table is missing.
+    /// ` X<i+1>="` for array element `i` (0-based, M4): up to `X99` one
+    /// 8-byte word built in registers ([`Writer::word`]), beyond that
+    /// digit by digit (out of line: arrays that long are rare).
+    #[inline]
     fn array_attr(&mut self, i: usize) {
-        match self.array_attrs.get(i) {
-            Some(piece) => self.w.bytes(piece),
-            None => {
-                self.w.bytes(b" X");
-                self.w.u64(i as u64 + 1);
-                self.w.bytes(b"=\"");
-            }
+        let n = i + 1;
+        if n < 10 {
+            let d = b'0' + n as u8;
+            self.w.word([b' ', b'X', d, b'=', b'"', 0, 0, 0], 5);
+        } else if n < 100 {
+            let [hi, lo] = digit_pair(n as u64);
+            self.w.word([b' ', b'X', hi, lo, b'=', b'"', 0, 0], 6);
+        } else {
+            self.long_array_attr(n);
         }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn long_array_attr(&mut self, n: usize) {
+        self.w.bytes(b" X");
+        self.w.u64(n as u64);
+        self.w.bytes(b"=\"");
     }
 
     /// The attributes of a multi-value field (M4); `false` for text values.
@@ -159,7 +170,6 @@ pub fn encode<M: MessageCodec>(
         w: &mut w,
         format,
         non_finite: 0,
-        array_attrs: M::ARRAY_ATTRS,
     };
     out.w.bytes(M::OPEN);
     out.w.u64(u64::from(id));
@@ -206,7 +216,31 @@ pub fn encode<M: MessageCodec>(
 
 #[cfg(test)]
 mod tests {
-    use super::BufferTooSmall;
+    use super::*;
+    extern crate std;
+    use std::format;
+
+    /// M4: element `i` of an array is `X<i+1>`, for every length G3
+    /// allows (1 to 1000), whether the buffer has room to spare (one word
+    /// store) or ends right after the name (byte by byte).
+    #[test]
+    fn m4_array_attribute_names_count_from_x1() {
+        for i in 0..1000 {
+            let want = format!(" X{}=\"", i + 1);
+            for room in [64, want.len()] {
+                let mut buf = [0u8; 64];
+                let mut w = Writer::new(&mut buf[..room]);
+                let mut out = Out {
+                    w: &mut w,
+                    format: Format::new(3, 3),
+                    non_finite: 0,
+                };
+                out.array_attr(i);
+                assert!(!w.overflowed(), "{want} in {room} bytes");
+                assert_eq!(w.written(), want.as_bytes(), "room {room}");
+            }
+        }
+    }
 
     #[test]
     fn buffer_too_small_says_what_the_buffer_must_hold() {

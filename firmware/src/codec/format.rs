@@ -124,7 +124,7 @@ const DIGIT_PAIRS: [[u8; 2]; 100] = {
 /// hits (the optimizer drops the check) and the `"00"` fallback is never
 /// written. The one lookup of [`DIGIT_PAIRS`].
 #[inline(always)]
-fn digit_pair(v: u64) -> [u8; 2] {
+pub(super) fn digit_pair(v: u64) -> [u8; 2] {
     DIGIT_PAIRS.get(v as usize).copied().unwrap_or([b'0'; 2])
 }
 
