@@ -36,11 +36,39 @@ impl core::fmt::Display for BufferTooSmall {
 
 impl core::error::Error for BufferTooSmall {}
 
-const FRAME_ATTRS: [&[u8]; 6] = [
-    b" X=\"", b" Y=\"", b" Z=\"", b" Rx=\"", b" Ry=\"", b" Rz=\"",
+/// An attribute's opener with, in front of it, the quote that closes the
+/// attribute before it (`" Rx="`): one word store for both. A field's
+/// first attribute is written without that quote ([`Out::opener`]) and
+/// its last one is closed after the loop.
+type Opener = ([u8; 8], usize);
+
+/// [`Opener`] of `text` (at most 8 bytes, the quote included).
+#[allow(clippy::indexing_slicing)] // evaluated at compile time
+const fn opener(text: &[u8]) -> Opener {
+    let mut word = [0u8; 8];
+    let mut i = 0;
+    while i < text.len() && i < 8 {
+        word[i] = text[i];
+        i += 1;
+    }
+    (word, i)
+}
+
+const FRAME_ATTRS: [Opener; 6] = [
+    opener(b"\" X=\""),
+    opener(b"\" Y=\""),
+    opener(b"\" Z=\""),
+    opener(b"\" Rx=\""),
+    opener(b"\" Ry=\""),
+    opener(b"\" Rz=\""),
 ];
-const JOINT_ATTRS: [&[u8]; 6] = [
-    b" J1=\"", b" J2=\"", b" J3=\"", b" J4=\"", b" J5=\"", b" J6=\"",
+const JOINT_ATTRS: [Opener; 6] = [
+    opener(b"\" J1=\""),
+    opener(b"\" J2=\""),
+    opener(b"\" J3=\""),
+    opener(b"\" J4=\""),
+    opener(b"\" J5=\""),
+    opener(b"\" J6=\""),
 ];
 
 struct Out<'w, 'b> {
@@ -68,18 +96,27 @@ impl Out<'_, '_> {
         write_escaped(self.w, s.as_str());
     }
 
-    /// ` X<i+1>="` for array element `i` (0-based, M4): up to `X99` one
-    /// 8-byte word built in registers ([`Writer::word`]), beyond that
-    /// digit by digit (out of line: arrays that long are rare).
+    /// Attribute `i` of a field: its [`Opener`], without the leading
+    /// quote when it is the first (`i == 0`).
+    #[inline]
+    fn opener(&mut self, (word, len): Opener, i: usize) {
+        let first = u32::from(i == 0);
+        let word = u64::from_le_bytes(word) >> (8 * first);
+        self.w.word(word.to_le_bytes(), len - first as usize);
+    }
+
+    /// The [`Opener`] of array element `i` (0-based, M4), `" X<i+1>="`:
+    /// up to `X99` one word built in registers, beyond that digit by digit
+    /// (out of line: arrays that long are rare).
     #[inline]
     fn array_attr(&mut self, i: usize) {
         let n = i + 1;
         if n < 10 {
             let d = b'0' + n as u8;
-            self.w.word([b' ', b'X', d, b'=', b'"', 0, 0, 0], 5);
+            self.opener(([b'"', b' ', b'X', d, b'=', b'"', 0, 0], 6), i);
         } else if n < 100 {
             let [hi, lo] = digit_pair(n as u64);
-            self.w.word([b' ', b'X', hi, lo, b'=', b'"', 0, 0], 6);
+            self.opener(([b'"', b' ', b'X', hi, lo, b'=', b'"', 0], 7), i);
         } else {
             self.long_array_attr(n);
         }
@@ -88,57 +125,58 @@ impl Out<'_, '_> {
     #[cold]
     #[inline(never)]
     fn long_array_attr(&mut self, n: usize) {
-        self.w.bytes(b" X");
+        self.w.bytes(b"\" X");
         self.w.u64(n as u64);
         self.w.bytes(b"=\"");
     }
 
     /// The attributes of a multi-value field (M4); `false` for text values.
     fn attributes(&mut self, value: &FieldRef<'_>) -> bool {
+        let start = self.w.len();
         match value {
             FieldRef::Frame(f) => {
-                for (name, v) in FRAME_ATTRS.iter().zip([f.x, f.y, f.z, f.rx, f.ry, f.rz]) {
-                    self.w.bytes(name);
+                let values = [f.x, f.y, f.z, f.rx, f.ry, f.rz];
+                for (i, (name, v)) in FRAME_ATTRS.iter().zip(values).enumerate() {
+                    self.opener(*name, i);
                     self.real(v);
-                    self.w.byte(b'"');
                 }
             }
             FieldRef::Joints(j) => {
-                for (name, v) in JOINT_ATTRS.iter().zip(j.iter()) {
-                    self.w.bytes(name);
+                for (i, (name, v)) in JOINT_ATTRS.iter().zip(j.iter()).enumerate() {
+                    self.opener(*name, i);
                     self.real(*v);
-                    self.w.byte(b'"');
                 }
             }
             FieldRef::Reals(a) => {
                 for (i, v) in a.iter().enumerate() {
                     self.array_attr(i);
                     self.real(*v);
-                    self.w.byte(b'"');
                 }
             }
             FieldRef::Bools(a) => {
                 for (i, v) in a.iter().enumerate() {
                     self.array_attr(i);
                     self.bool(*v);
-                    self.w.byte(b'"');
                 }
             }
             FieldRef::Times(a) => {
                 for (i, v) in a.iter().enumerate() {
                     self.array_attr(i);
                     self.time(*v);
-                    self.w.byte(b'"');
                 }
             }
             FieldRef::Strs(a) => {
                 for (i, v) in a.iter().enumerate() {
                     self.array_attr(i);
                     self.string(v);
-                    self.w.byte(b'"');
                 }
             }
             _ => return false,
+        }
+        // The last attribute's closing quote (an array of none, which G3
+        // does not allow, has no attribute to close).
+        if self.w.len() > start {
+            self.w.byte(b'"');
         }
         true
     }
@@ -222,11 +260,13 @@ mod tests {
 
     /// M4: element `i` of an array is `X<i+1>`, for every length G3
     /// allows (1 to 1000), whether the buffer has room to spare (one word
-    /// store) or ends right after the name (byte by byte).
+    /// store) or ends right after the name (byte by byte); every element
+    /// but the first closes the one before it.
     #[test]
     fn m4_array_attribute_names_count_from_x1() {
         for i in 0..1000 {
-            let want = format!(" X{}=\"", i + 1);
+            let close = if i == 0 { "" } else { "\"" };
+            let want = format!("{close} X{}=\"", i + 1);
             for room in [64, want.len()] {
                 let mut buf = [0u8; 64];
                 let mut w = Writer::new(&mut buf[..room]);
@@ -240,6 +280,54 @@ mod tests {
                 assert_eq!(w.written(), want.as_bytes(), "room {room}");
             }
         }
+    }
+
+    fn attributes(value: FieldRef<'_>) -> (bool, std::string::String) {
+        let mut buf = [0u8; 256];
+        let mut w = Writer::new(&mut buf);
+        let mut out = Out {
+            w: &mut w,
+            format: Format::new(1, 3),
+            non_finite: 0,
+        };
+        let multi = out.attributes(&value);
+        assert!(!w.overflowed());
+        (
+            multi,
+            std::string::String::from_utf8(w.written().to_vec()).unwrap(),
+        )
+    }
+
+    /// M4: each value is quoted once, whatever shares a word store.
+    #[test]
+    fn m4_attributes_are_each_quoted() {
+        let p = crate::value::Frame {
+            x: 1.0,
+            y: 2.0,
+            z: 3.0,
+            rx: 4.0,
+            ry: 5.0,
+            rz: -6.0,
+        };
+        assert_eq!(
+            attributes(FieldRef::Frame(&p)).1,
+            r#" X="1.0" Y="2.0" Z="3.0" Rx="4.0" Ry="5.0" Rz="-6.0""#
+        );
+        let j = [0.5, 1.0, 1.5, 2.0, 2.5, 3.0];
+        assert_eq!(
+            attributes(FieldRef::Joints(&j)).1,
+            r#" J1="0.5" J2="1.0" J3="1.5" J4="2.0" J5="2.5" J6="3.0""#
+        );
+        let flags = [true, false];
+        assert_eq!(
+            attributes(FieldRef::Bools(&flags)).1,
+            r#" X1="TRUE" X2="FALSE""#
+        );
+        assert_eq!(attributes(FieldRef::Reals(&[7.0])).1, r#" X1="7.0""#);
+        // No elements (G3 allows none, a hand-written record could): no
+        // stray quote.
+        assert_eq!(attributes(FieldRef::Reals(&[])), (true, "".into()));
+        assert_eq!(attributes(FieldRef::Real(1.0)), (false, "".into()));
     }
 
     #[test]
