@@ -128,12 +128,64 @@ pub(super) fn digit_pair(v: u64) -> [u8; 2] {
     DIGIT_PAIRS.get(v as usize).copied().unwrap_or([b'0'; 2])
 }
 
+/// [`fixed_u32`]'s window: 16 positions, and two bytes more so that a
+/// digit pair at the last one is in bounds without a check.
+const WINDOW: usize = 18;
+
+/// The text of `v / 10^frac` with exactly `frac` decimals (and a sign),
+/// `total` characters, at the start of `out`: right to left, two digits
+/// per division by a constant, each position masked to the window so no
+/// store needs a bounds check (`total` ≤ 12 for a `u32` at up to six
+/// decimals, and exact; a miscount would misplace digits, never panic).
+#[inline(always)]
+fn fixed_u32(out: &mut [u8; WINDOW], negative: bool, mut v: u32, frac: usize, total: usize) {
+    let mut at = total;
+    macro_rules! put {
+        ($b:expr) => {
+            at = at.wrapping_sub(1);
+            if let Some(x) = out.get_mut(at % 16) {
+                *x = $b;
+            }
+        };
+    }
+    macro_rules! pair {
+        ($v:expr) => {
+            at = at.wrapping_sub(2);
+            let i = at % 16;
+            if let Some(two) = out.get_mut(i..i + 2) {
+                two.copy_from_slice(&digit_pair(u64::from($v)));
+            }
+        };
+    }
+    for _ in 0..frac / 2 {
+        pair!(v % 100);
+        v /= 100;
+    }
+    if frac % 2 == 1 {
+        put!(b'0' + (v % 10) as u8);
+        v /= 10;
+    }
+    if frac > 0 {
+        put!(b'.');
+    }
+    while v >= 100 {
+        pair!(v % 100);
+        v /= 100;
+    }
+    if v >= 10 {
+        pair!(v);
+    } else {
+        put!(b'0' + v as u8);
+    }
+    if negative {
+        put!(b'-');
+    }
+}
+
 impl Writer<'_> {
-    /// Decimal digits of `v`.
+    /// Decimal digits of `v`: a fixed-point value without decimals.
     pub fn u64(&mut self, v: u64) {
-        let mut d = Backward::new();
-        d.integer(v);
-        self.bytes(d.as_slice());
+        self.fixed(false, v, 0);
     }
 
     /// An `f32` with exactly `decimals` decimals, never exponent notation
@@ -177,7 +229,7 @@ impl Writer<'_> {
                 .and_then(|v| v.checked_mul(pow10(decimals)))
             {
                 Some(q) => self.fixed(negative, q, decimals),
-                None => self.huge(negative, v, decimals),
+                None => self.long(negative, v, 0, usize::from(decimals)),
             }
             return true;
         }
@@ -199,86 +251,60 @@ impl Writer<'_> {
         true
     }
 
-    /// `q / 10^decimals` with exactly `decimals` decimals, written straight
-    /// into the output from its last digit backwards, two digits per
-    /// division (the hot path of every sent real: no temporary, no copy).
+    /// `q / 10^decimals` with exactly `decimals` decimals (the hot path
+    /// of every sent real), written by [`fixed_u32`] straight into the
+    /// next bytes of the buffer ([`Writer::fill`]): no temporary, no
+    /// copy, no per-byte bounds check. Values of 2^32 and more, and texts
+    /// near the end of the buffer, take [`Writer::long`].
     fn fixed(&mut self, negative: bool, q: u64, decimals: u8) {
         let frac = usize::from(decimals.min(MAX_DECIMALS));
         let point = usize::from(frac > 0);
         // All of `q`'s digits, and at least one before the point.
         let digits = digit_count(q).max(frac + 1);
         let total = usize::from(negative) + digits + point;
-        let Some(dst) = self.reserve(total) else {
+        // Below 2^32 (every real a robot exchanges, at up to 6 decimals
+        // below 4294.967296): 32-bit divisions, one instruction on a
+        // Cortex-M7 where a `u64` one is a library call.
+        let Ok(v) = u32::try_from(q) else {
+            self.long(negative, 0, q, frac);
             return;
         };
-        // `total` is exact, so the iterator ends exactly at the sign; a
-        // miscount would drop digits, never panic.
-        let mut out = dst.iter_mut().rev();
-        macro_rules! put {
-            ($b:expr) => {
-                if let Some(x) = out.next() {
-                    *x = $b;
-                }
-            };
-        }
-        macro_rules! pair {
-            ($v:expr) => {
-                let [hi, lo] = digit_pair($v);
-                put!(lo);
-                put!(hi);
-            };
-        }
-        // Right to left: the decimals, the point, the integer part, the
-        // sign; divisions by constants only.
-        let mut v = q;
-        for _ in 0..frac / 2 {
-            pair!(v % 100);
-            v /= 100;
-        }
-        if frac % 2 == 1 {
-            put!(b'0' + (v % 10) as u8);
-            v /= 10;
-        }
-        if point == 1 {
-            put!(b'.');
-        }
-        while v >= 100 {
-            pair!(v % 100);
-            v /= 100;
-        }
-        if v >= 10 {
-            pair!(v);
-        } else {
-            put!(b'0' + v as u8);
-        }
-        if negative {
-            put!(b'-');
+        if !self.fill(total, |out: &mut [u8; WINDOW]| {
+            fixed_u32(out, negative, v, frac, total)
+        }) {
+            self.long(negative, 0, q, frac);
         }
     }
 
-    /// An integer of up to 39 digits (`f32` values from about 10^13 up to
-    /// `f32::MAX`) and `decimals` zeros. Nine digits at a time by long
-    /// division of 32-bit limbs: `u64` arithmetic only, no `u128`
-    /// division (which a Cortex-M7 has no instruction for, and which costs
-    /// about a kilobyte of code inline). Rare, so out of line.
+    /// `whole + scaled / 10^decimals` with exactly `decimals` decimals:
+    /// the fixed-point values [`Writer::fixed`] leaves (`whole` 0: 2^32
+    /// and more, or too near the end of the buffer for its window), and integers of up to 39 digits (`f32` values from
+    /// about 10^13 up to `f32::MAX`, `scaled` 0). Nine digits at a
+    /// time by long division of 32-bit limbs: `u64` arithmetic only, no
+    /// `u128` division (which a Cortex-M7 has no instruction for, and
+    /// which costs about a kilobyte of code inline). Rare, so out of line.
     #[cold]
     #[inline(never)]
-    fn huge(&mut self, negative: bool, v: u128, decimals: u8) {
+    fn long(&mut self, negative: bool, whole: u128, scaled: u64, decimals: usize) {
         const CHUNK: u64 = 1_000_000_000;
         let mut d = Backward::new();
+        let mut f = scaled;
         for _ in 0..decimals {
-            d.push(b'0');
+            d.digit(f);
+            f /= 10;
         }
         if decimals > 0 {
             d.push(b'.');
         }
+        // What is left of `scaled` is whole units.
+        let whole = whole + u128::from(f);
         let mut limbs = [
-            (v >> 96) as u32,
-            (v >> 64) as u32,
-            (v >> 32) as u32,
-            v as u32,
+            (whole >> 96) as u32,
+            (whole >> 64) as u32,
+            (whole >> 32) as u32,
+            whole as u32,
         ];
-        // 2^128 < 10^45: five chunks of nine digits hold any `v`.
+        // 2^128 < 10^45: five chunks of nine digits hold any `whole`.
         for _ in 0..5 {
             let mut r = 0u64;
             for limb in &mut limbs {
@@ -410,6 +436,38 @@ mod tests {
         assert_eq!(time(-499, 3), "0.000");
         assert_eq!(time(i64::MIN, 3), "-9223372036854.776");
         assert_eq!(time(7, 0), "0");
+    }
+
+    /// Times of 10^k − 1 and 10^k µs with 6 decimals are 8 to 26
+    /// characters: both sides of `fixed`'s 16-byte word, and its long path.
+    #[test]
+    fn m5_every_length_on_both_sides_of_the_word() {
+        for k in 0..=18 {
+            let p = 10i64.pow(k);
+            for micros in [p - 1, p, 1 - p, -p] {
+                let m = micros.unsigned_abs();
+                let sign = if micros < 0 { "-" } else { "" };
+                let want = format!("{sign}{}.{:06}", m / 1_000_000, m % 1_000_000);
+                assert_eq!(time(micros, 6), want);
+            }
+        }
+    }
+
+    /// A real needs its own length of room, not `fixed`'s whole window:
+    /// with less than the window left it is written by the long path,
+    /// the same text; with less than its length, nothing, and flagged.
+    #[test]
+    fn a_real_fits_exactly_at_the_end_of_the_buffer() {
+        let text = b"-1234.567";
+        for room in 0..=WINDOW + 2 {
+            let mut buf = [b'#'; 32];
+            let mut w = Writer::new(&mut buf[..room]);
+            w.real(-1234.567, 3);
+            let fits = room >= text.len();
+            let want: &[u8] = if fits { text } else { b"" };
+            assert_eq!((w.written(), w.overflowed()), (want, !fits), "room {room}");
+            assert!(buf[room..].iter().all(|&b| b == b'#'), "room {room}");
+        }
     }
 
     #[test]

@@ -9,8 +9,8 @@
 /// sure a wrong size is an error, not memory corruption.
 ///
 /// Invariant: `len <= buf.len()`. `len` starts at 0, and only `reserve`,
-/// [`Writer::byte`] and [`Writer::word`] advance it, each after finding in
-/// `buf` the bytes it counts. [`Writer::written`] is the one place that relies on it.
+/// `fill` and [`Writer::byte`] advance it, each after finding in `buf`
+/// the bytes it counts. [`Writer::written`] is the one place that relies on it.
 pub struct Writer<'a> {
     buf: &'a mut [u8],
     /// Bytes written; never more than `buf.len()` (see above).
@@ -50,9 +50,9 @@ impl<'a> Writer<'a> {
         self.buf.get(..self.len).unwrap_or(&[])
     }
 
-    /// The next `n` bytes of the buffer, counted as written, for a writer
-    /// that fills them in any order (digits from the last one backwards);
-    /// `None`, and the overflow flag set, when they do not fit.
+    /// The next `n` bytes of the buffer, counted as written, for the
+    /// caller to fill; `None`, and the overflow flag set, when they do not
+    /// fit.
     #[inline]
     pub(crate) fn reserve(&mut self, n: usize) -> Option<&mut [u8]> {
         let start = self.len;
@@ -81,29 +81,48 @@ impl<'a> Writer<'a> {
     }
 
     /// Appends the first `n` bytes of `word` (`n` ≤ 8), or nothing if they
-    /// do not fit: a short fixed piece (an attribute's ` X12="`) in one
-    /// 8-byte store where the buffer has room for all eight, instead of a
-    /// copy loop or a `memcpy` call for five bytes. The bytes after the
-    /// `n` counted are scratch: beyond [`Writer::written`], and the next
-    /// write starts over them.
+    /// do not fit: a short piece built in registers (an attribute's
+    /// ` X12="`) in one 8-byte store where the buffer has room for all
+    /// eight, instead of a copy loop or a `memcpy` call for five bytes.
+    /// The bytes after the `n` counted are scratch: beyond
+    /// [`Writer::written`], and the next write starts over them.
     #[inline]
     pub fn word(&mut self, word: [u8; 8], n: usize) {
+        if !self.fill(n, |dst: &mut [u8; 8]| *dst = word) {
+            // Near the end of the buffer: byte by byte; `n` > 8 is a
+            // miscount, refused like a write that does not fit.
+            match word.get(..n) {
+                Some(piece) => self.bytes(piece),
+                None => self.overflow = true,
+            }
+        }
+    }
+
+    /// Lets `write` fill the next `N` bytes of the buffer and counts the
+    /// first `n` (`n` ≤ `N`) as written; `false`, and nothing written,
+    /// when `N` bytes are not left. For a writer that puts its bytes in
+    /// any order at positions it masks into the `N` (no bounds checks),
+    /// such as a number's digits from the last one backwards; the caller
+    /// writes some other way when this returns `false` (only ever near
+    /// the end of the buffer).
+    #[inline]
+    pub(crate) fn fill<const N: usize>(
+        &mut self,
+        n: usize,
+        write: impl FnOnce(&mut [u8; N]),
+    ) -> bool {
         let start = self.len;
         let room = self
             .buf
-            .get_mut(start..start + 8)
-            .and_then(|d| <&mut [u8; 8]>::try_from(d).ok());
+            .get_mut(start..start + N)
+            .and_then(|d| <&mut [u8; N]>::try_from(d).ok());
         match room {
-            Some(dst) if n <= 8 => {
-                *dst = word;
+            Some(dst) if n <= N => {
+                write(dst);
                 self.len = start + n;
+                true
             }
-            // Near the end of the buffer: byte by byte; `n` > 8 is a
-            // miscount, refused like a write that does not fit.
-            _ => match word.get(..n) {
-                Some(piece) => self.bytes(piece),
-                None => self.overflow = true,
-            },
+            _ => false,
         }
     }
 
