@@ -1,5 +1,5 @@
 //! Emission of the layout's constants: network, channel, supervision and
-//! number settings, the array attribute openers, and the totals (buffer
+//! number settings, and the totals (buffer
 //! sizes, the engine configuration) every buffer of the firmware is sized by.
 
 use crate::emit::{str_lit, Emitter};

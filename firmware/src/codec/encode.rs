@@ -1,8 +1,9 @@
 //! Device → robot: typed data into a reply datagram, straight into the
 //! caller's buffer (M1–M8).
 //!
-//! The fixed parts (tags, attribute names, quotes) are byte strings
-//! precomputed by the build script; values are written by the fixed-decimal
+//! The fixed parts are byte strings precomputed by the build script
+//! (tags) or here (attribute names with their quotes, array names built
+//! in registers); values are written by the fixed-decimal
 //! writers of [`super::format`], never by `core::fmt`. Output is compact (no
 //! whitespace). With a buffer of the message's generated
 //! `MAX_ENCODED_LEN`, encoding cannot run out of space; a smaller buffer is
@@ -42,9 +43,11 @@ impl core::error::Error for BufferTooSmall {}
 /// its last one is closed after the loop.
 type Opener = ([u8; 8], usize);
 
-/// [`Opener`] of `text` (at most 8 bytes, the quote included).
+/// [`Opener`] of `text` (at most 8 bytes, the quote included; a longer
+/// one fails the build).
 #[allow(clippy::indexing_slicing)] // evaluated at compile time
 const fn opener(text: &[u8]) -> Opener {
+    assert!(text.len() <= 8, "an attribute opener is one 8-byte word");
     let mut word = [0u8; 8];
     let mut i = 0;
     while i < text.len() && i < 8 {

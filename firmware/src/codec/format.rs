@@ -128,8 +128,9 @@ pub(super) fn digit_pair(v: u64) -> [u8; 2] {
     DIGIT_PAIRS.get(v as usize).copied().unwrap_or([b'0'; 2])
 }
 
-/// [`fixed_u32`]'s window: 16 positions, and two bytes more so that a
-/// digit pair at the last one is in bounds without a check.
+/// [`fixed_u32`]'s window: 16 positions, and spare bytes after them so
+/// that a digit pair at the last position (bytes 15 and 16) is in bounds
+/// without a check.
 const WINDOW: usize = 18;
 
 /// The text of `v / 10^frac` with exactly `frac` decimals (and a sign),
@@ -416,7 +417,7 @@ mod tests {
             if !v.is_finite() {
                 continue;
             }
-            for d in [0u8, 3, 6] {
+            for d in 0..=MAX_DECIMALS {
                 let mut want = format!("{:.*}", usize::from(d), v);
                 if want.starts_with('-') && want.bytes().all(|b| matches!(b, b'-' | b'0' | b'.')) {
                     want.remove(0);
@@ -438,10 +439,11 @@ mod tests {
         assert_eq!(time(7, 0), "0");
     }
 
-    /// Times of 10^k − 1 and 10^k µs with 6 decimals are 8 to 26
-    /// characters: both sides of `fixed`'s 16-byte word, and its long path.
+    /// Times of ±(10^k − 1) and ±10^k µs with 6 decimals, 8 to 21
+    /// characters: every length, below 2^32 µs through `fixed_u32`, above
+    /// it through `long`.
     #[test]
-    fn m5_every_length_on_both_sides_of_the_word() {
+    fn m5_times_of_every_length_through_both_paths() {
         for k in 0..=18 {
             let p = 10i64.pow(k);
             for micros in [p - 1, p, 1 - p, -p] {
@@ -456,6 +458,7 @@ mod tests {
     /// A real needs its own length of room, not `fixed`'s whole window:
     /// with less than the window left it is written by the long path,
     /// the same text; with less than its length, nothing, and flagged.
+    /// The window's bytes past the text are left as they were.
     #[test]
     fn a_real_fits_exactly_at_the_end_of_the_buffer() {
         let text = b"-1234.567";
@@ -466,7 +469,8 @@ mod tests {
             let fits = room >= text.len();
             let want: &[u8] = if fits { text } else { b"" };
             assert_eq!((w.written(), w.overflowed()), (want, !fits), "room {room}");
-            assert!(buf[room..].iter().all(|&b| b == b'#'), "room {room}");
+            let end = want.len();
+            assert!(buf[end..].iter().all(|&b| b == b'#'), "room {room}");
         }
     }
 

@@ -82,7 +82,7 @@ impl<'a> Writer<'a> {
 
     /// Appends the first `n` bytes of `word` (`n` ≤ 8), or nothing if they
     /// do not fit: a short piece built in registers (an attribute's
-    /// ` X12="`) in one 8-byte store where the buffer has room for all
+    /// `" X12="`) in one 8-byte store where the buffer has room for all
     /// eight, instead of a copy loop or a `memcpy` call for five bytes.
     /// The bytes after the `n` counted are scratch: beyond
     /// [`Writer::written`], and the next write starts over them.
@@ -167,12 +167,12 @@ mod tests {
         w.word(piece, 5);
         w.byte(b'1');
         assert_eq!(w.written(), b" X7=\"1");
-        // Room for exactly five: written byte by byte, nothing past them.
-        let mut buf = [0u8; 6];
-        let mut w = Writer::new(&mut buf[..5]);
+        // Room for exactly five (not the word's eight): written byte by
+        // byte, all five, not flagged.
+        let mut buf = [0u8; 5];
+        let mut w = Writer::new(&mut buf);
         w.word(piece, 5);
         assert_eq!((w.written(), w.overflowed()), (&b" X7=\""[..], false));
-        assert_eq!(buf[5], 0);
         // Room for four: nothing written, flagged.
         let mut buf = [0u8; 4];
         let mut w = Writer::new(&mut buf);
