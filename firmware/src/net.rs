@@ -280,6 +280,14 @@ where
         let [tx_a, tx_b] = tx;
         let mut a = TcpSocket::new(stack, rx_a, tx_a);
         let mut b = TcpSocket::new(stack, rx_b, tx_b);
+        // A reply is one small segment a cycle. Nagle's algorithm (on by
+        // default) would hold it while the previous reply is still
+        // unacknowledged, that is until the controller's next message or
+        // its delayed-ACK timer (40 ms on Linux): several cycles late. A
+        // reply leaves as soon as it is ready. smoltcp keeps the setting
+        // across the sockets' close and listen.
+        a.set_nagle_enabled(false);
+        b.set_nagle_enabled(false);
         let (mut served, mut standby) = (&mut a, &mut b);
         let mut listened = false;
         loop {

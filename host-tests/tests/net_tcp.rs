@@ -17,8 +17,12 @@ use rri_firmware::engine::{Config, Engine, SensorState};
 use rri_firmware::tcp::Framer;
 use smoltcp::wire::Ipv4Address;
 use std::cell::Cell;
+use std::collections::VecDeque;
 
 type DeviceEngine = Engine<layout::RobotProperties, layout::DeviceProperties>;
+
+/// One poll step of the in-memory Ethernet (`memnet`).
+const STEP_US: u64 = 50;
 
 /// A short `TimeOut` (the stall rule's clock) so the tests stay quick.
 const TIMEOUT_MS: u32 = 100;
@@ -38,6 +42,9 @@ fn message(id: u32) -> String {
 struct Robot<'a> {
     socket: TcpSocket<'a>,
     framer: Framer<4096>,
+    /// Ids of replies read but not yet asked for (one read may carry
+    /// several replies).
+    pending: VecDeque<u32>,
 }
 
 impl<'a> Robot<'a> {
@@ -51,6 +58,7 @@ impl<'a> Robot<'a> {
         Robot {
             socket,
             framer: Framer::new(),
+            pending: VecDeque::new(),
         }
     }
 
@@ -69,22 +77,21 @@ impl<'a> Robot<'a> {
     async fn reply(&mut self) -> Option<u32> {
         let mut chunk = [0u8; 1024];
         loop {
-            let mut reply = None;
+            if let Some(id) = self.pending.pop_front() {
+                return Some(id);
+            }
             let n = match self.socket.read(&mut chunk).await {
                 Ok(0) | Err(_) => return None,
                 Ok(n) => n,
             };
+            let pending = &mut self.pending;
             self.framer
-                .push(&chunk[..n], |m| reply = Some(m.to_vec()))
+                .push(&chunk[..n], |r| {
+                    let mut data = layout::SensorData::default();
+                    let id = decode::<SensDataMessage>(r, &mut data).expect("decodes").id;
+                    pending.push_back(id);
+                })
                 .expect("replies fit");
-            if let Some(r) = reply {
-                let mut data = layout::SensorData::default();
-                return Some(
-                    decode::<SensDataMessage>(&r, &mut data)
-                        .expect("decodes")
-                        .id,
-                );
-            }
         }
     }
 
@@ -154,6 +161,46 @@ fn frames_answers_and_closes_on_a_framing_error_m10() {
     let s = engine.stats();
     assert_eq!((s.answered, s.framing_errors, s.closed), (200, 1, 1));
     assert_eq!(engine.state(), SensorState::Closed);
+}
+
+/// S1 over TCP: a reply leaves as soon as it is ready, even while the
+/// previous one is still unacknowledged. Message 3 reaches the device
+/// while reply 2 is in flight; with Nagle's algorithm (the socket
+/// default) reply 3 waited for reply 2's ACK, which the robot's stack
+/// delays by 10 ms (smoltcp's default): 10,050 µs, two and a half cycles
+/// late. Mock time, deterministic.
+#[test]
+fn a_reply_does_not_wait_for_the_ack_of_the_one_before() {
+    let mut engine = DeviceEngine::new(layout::ENGINE_CONFIG);
+    let gap_us = &Cell::new(None);
+    let done = with_tcp_device(
+        &mut engine,
+        &mut (),
+        move |stack| async move {
+            let (mut rx, mut tx) = ([0u8; 4096], [0u8; 4096]);
+            let mut robot = Robot::connect(stack, &mut rx, &mut tx).await;
+            // Warm: a first exchange, so the connection is established
+            // both ways and nothing is in flight.
+            assert_eq!(robot.ask(1).await, Some(1));
+            // Message 3 one poll step after message 2, in a segment of
+            // its own: it reaches the device while reply 2 is in flight.
+            robot.socket.set_nagle_enabled(false);
+            assert!(robot.write(message(2).as_bytes()).await);
+            Timer::after(Duration::from_micros(STEP_US)).await;
+            assert!(robot.write(message(3).as_bytes()).await);
+            assert_eq!(robot.reply().await, Some(2));
+            let first = embassy_time::Instant::now();
+            assert_eq!(robot.reply().await, Some(3));
+            gap_us.set(Some(first.elapsed().as_micros()));
+        },
+        200_000,
+    );
+    assert!(done, "the robot finished");
+    let gap = gap_us.get().expect("both replies came");
+    assert!(
+        gap < 1_000,
+        "the second reply came {gap} µs after the first: held for an ACK (Nagle)"
+    );
 }
 
 /// Defect 3 of the hostile-world issue: a controller that resets its
