@@ -141,6 +141,22 @@ impl Summary {
         self.supervision_tripped.is_none() && self.wrong_id == 0 && self.malformed == 0
     }
 
+    /// The run failed on timing alone: supervision tripped, yet every
+    /// message was answered, every reply was right and every output was
+    /// written, so only lateness (S1's `MaxLost` late replies in a row)
+    /// tripped it. On a shared machine running an emulated board in real
+    /// time, a stall of the host looks exactly like this; a missing or
+    /// wrong reply never does.
+    pub fn late_only(&self) -> bool {
+        self.supervision_tripped.is_some()
+            && self.late > 0
+            && self.lost == 0
+            && self.answered == self.sent
+            && self.wrong_id == 0
+            && self.malformed == 0
+            && self.output_errors.is_empty()
+    }
+
     /// Why the run did not pass.
     pub fn failure(&self) -> Option<String> {
         if let Some(s) = &self.supervision_tripped {
@@ -277,5 +293,50 @@ mod tests {
             (1, 501, 990, 999, 1000)
         );
         assert_eq!(Latency::of(vec![]), Latency::default());
+    }
+
+    /// S1: a trip on late replies alone is told apart from one with a
+    /// missing, wrong or malformed reply.
+    #[test]
+    fn late_only_is_a_trip_with_every_reply_there_and_right() {
+        let late = Summary {
+            sent: 500,
+            answered: 500,
+            late: 60,
+            supervision_tripped: Some("30 late".into()),
+            ..Summary::default()
+        };
+        assert!(late.late_only());
+        assert!(!Summary {
+            supervision_tripped: None,
+            ..late.clone()
+        }
+        .late_only());
+        assert!(!Summary {
+            lost: 1,
+            answered: 499,
+            ..late.clone()
+        }
+        .late_only());
+        assert!(!Summary {
+            wrong_id: 1,
+            ..late.clone()
+        }
+        .late_only());
+        assert!(!Summary {
+            malformed: 1,
+            ..late.clone()
+        }
+        .late_only());
+        assert!(!Summary {
+            late: 0,
+            ..late.clone()
+        }
+        .late_only());
+        let unwritten = Summary {
+            output_errors: vec!["plot".into()],
+            ..late
+        };
+        assert!(!unwritten.late_only());
     }
 }
