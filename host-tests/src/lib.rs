@@ -13,6 +13,7 @@ pub mod layouts {
 
 pub mod boards;
 pub mod counters;
+pub mod differential;
 pub mod fuzzing;
 pub mod memory_map;
 pub mod qemu;

@@ -344,24 +344,55 @@ pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
 /// else, or where no fast path holds.
 #[inline(always)]
 fn plain(text: &[u8]) -> Option<f32> {
-    // Longer than 19 digits, a sign and a point: not plain.
+    // Longer than 19 digits, a sign and a point: not plain (refused before
+    // any digit is read, so a long hostile text costs nothing here).
     if text.len() > SAFE_DIGITS + 2 {
         return None;
     }
-    let (negative, t) = sign(text);
-    let (_, rest, m) = digit_run(t, 0);
-    let (m, fraction, digits) = match rest {
-        [] => (m, 0, t.len()),
-        [b'.', after @ ..] => match digit_run(after, m) {
-            (_, [], m) => (m, after.len(), t.len() - 1),
-            _ => return None,
-        },
-        _ => return None,
-    };
-    if !(1..=SAFE_DIGITS).contains(&digits) {
-        return None;
+    match plain_scan(text)? {
+        (negative, m, fraction, []) => plain_value(negative, m, fraction),
+        _ => None,
     }
-    // `fraction` < 21 fits an i32.
+}
+
+/// [`parse_f32`]'s plain path at the start of `text`, for the compiled
+/// decode path (`codec::compiled`), which reads a value in place up to its
+/// closing quote: the value and how many bytes it took. When the byte
+/// after them cannot continue a number (a quote, `<`), `parse_f32` of
+/// exactly those bytes gives the same value: both are [`plain_scan`] and
+/// [`plain_value`] over the same digits. `None` where the plain path does
+/// not hold.
+#[inline(always)]
+pub(crate) fn plain_prefix(text: &[u8]) -> Option<(f32, usize)> {
+    let (negative, m, fraction, rest) = plain_scan(text)?;
+    Some((plain_value(negative, m, fraction)?, text.len() - rest.len()))
+}
+
+/// The one plain scanner behind [`plain`] and [`plain_prefix`]: `[sign]
+/// digits [. digits]` with 1 to 19 digits at the start of `text` (so at
+/// most 21 bytes, though a longer digit run is read to its end before it
+/// is refused): the sign, the digits as one integer, how many follow the
+/// point, and what follows the number.
+#[inline(always)]
+fn plain_scan(text: &[u8]) -> Option<(bool, u64, usize, &[u8])> {
+    let (negative, t) = sign(text);
+    let (whole, rest, m) = digit_run(t, 0);
+    let (m, fraction, rest) = match rest {
+        [b'.', after @ ..] => {
+            let (fraction, rest, m) = digit_run(after, m);
+            (m, fraction, rest)
+        }
+        _ => (m, 0, rest),
+    };
+    (1..=SAFE_DIGITS)
+        .contains(&(whole + fraction))
+        .then_some((negative, m, fraction, rest))
+}
+
+/// A plain number's value by Clinger's fast paths (`fraction` ≤ 19).
+#[inline(always)]
+fn plain_value(negative: bool, m: u64, fraction: usize) -> Option<f32> {
+    // `fraction` ≤ 19 fits an i32.
     let v = clinger(m, -(fraction as i32))?;
     Some(if negative { -v } else { v })
 }
