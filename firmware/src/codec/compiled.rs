@@ -34,7 +34,7 @@
 //! more pass than the general path alone.
 
 use super::decode::{Decoded, Tally};
-use super::number::{is_xml_space, parse_f32, parse_time, parse_u32, plain_prefix};
+use super::number::{is_xml_space, parse_f32, parse_time, parse_u32, plain_prefix, MAX_NUMBER_LEN};
 use crate::codec::decode::parse_bool;
 use crate::value::{Frame, Joints, RriString, Time, MAX_STRING_LEN};
 
@@ -47,7 +47,11 @@ const TEXT: u8 = 1;
 /// whitespace.
 const VALUE: u8 = 2;
 
-/// [`TEXT`] and [`VALUE`] of every byte: one load a byte in the scans.
+/// XML whitespace (space, tab, CR, LF).
+const SPACE: u8 = 4;
+
+/// [`TEXT`], [`VALUE`] and [`SPACE`] of every byte: one load a byte in
+/// the scans.
 static CLASS: [u8; 256] = classes();
 
 #[allow(clippy::indexing_slicing)] // evaluated at compile time
@@ -65,6 +69,9 @@ const fn classes() -> [u8; 256] {
             } else {
                 TEXT | VALUE
             };
+            if is_xml_space(c) {
+                t[b] |= SPACE;
+            }
         }
         b += 1;
     }
@@ -77,6 +84,20 @@ fn class(b: u8) -> u8 {
     // 256 entries: every `u8` is in bounds.
     CLASS.get(usize::from(b)).copied().unwrap_or(0)
 }
+
+/// [`Scan::real`]'s window for the plain notation: 21 bytes and the one
+/// after them.
+const PLAIN_WINDOW: usize = 22;
+
+/// The longest real attribute value the compiled path reads: a number of
+/// `MAX_NUMBER_LEN` characters and some whitespace around it. Longer ones
+/// go to the general path (which refuses the number, or trims the
+/// whitespace), so no value costs the compiled path more than this.
+const NUMBER_VALUE_LEN: usize = MAX_NUMBER_LEN + 16;
+
+/// Whitespace [`Scan::ws`] reads a byte at a time before it takes the run
+/// for padding: a line break and indentation.
+const INDENTATION: usize = 12;
 
 /// A machine word: literals are compared a word at a time.
 type Word = usize;
@@ -316,7 +337,12 @@ impl<'a> Scan<'a> {
     /// value, as the general path reads it.
     #[inline(always)]
     pub fn real(&mut self) -> Option<f32> {
-        if let Some((v, n)) = plain_prefix(self.rest) {
+        // A plain number takes at most 21 bytes (19 digits, a sign, a
+        // point): in a window of 22, one that ends before the window's
+        // end ends where it would in the whole datagram, and a longer run
+        // of digits costs no more than the window.
+        let window = self.rest.get(..PLAIN_WINDOW).unwrap_or(self.rest);
+        if let Some((v, n)) = plain_prefix(window) {
             if let Some((&b'"', rest)) = self.rest.get(n..).and_then(<[u8]>::split_first) {
                 self.rest = rest;
                 return Some(v);
@@ -325,9 +351,21 @@ impl<'a> Scan<'a> {
         self.real_other()
     }
 
+    /// [`Scan::real`] of any other text: a value of at most
+    /// [`NUMBER_VALUE_LEN`] bytes read by `parse_f32`; a longer one (a
+    /// number the general path refuses, or whitespace it trims) is left to
+    /// the general path unread.
     #[inline(never)]
     fn real_other(&mut self) -> Option<f32> {
-        real(self.value()?)
+        let head = self.rest.get(..NUMBER_VALUE_LEN + 1).unwrap_or(self.rest);
+        let len = head.iter().position(|&b| class(b) & VALUE == 0)?;
+        let (value, rest) = self.rest.split_at_checked(len)?;
+        let (&b'"', rest) = rest.split_first()? else {
+            return None;
+        };
+        let v = real(value)?;
+        self.rest = rest;
+        Some(v)
     }
 
     /// A frame's attributes `X Y Z Rx Ry Rz` (M4) in that order, any left
@@ -493,7 +531,10 @@ impl<'a> Scan<'a> {
         })
     }
 
-    /// Skips XML whitespace; whether there was any.
+    /// Skips XML whitespace; whether there was any. A compact message has
+    /// none (one test), an indented one a few bytes a line; a run longer
+    /// than indentation (a hostile datagram may be thousands of bytes of
+    /// it) is read four bytes a turn.
     #[inline(always)]
     fn ws(&mut self) -> bool {
         let before = self.rest.len();
@@ -502,8 +543,30 @@ impl<'a> Scan<'a> {
                 break;
             }
             self.rest = rest;
+            if before - self.rest.len() == INDENTATION {
+                self.padding();
+                break;
+            }
         }
         self.rest.len() != before
+    }
+
+    /// The rest of a long run of whitespace.
+    #[cold]
+    #[inline(never)]
+    fn padding(&mut self) {
+        while let Some((&[a, b, c, d], rest)) = self.rest.split_first_chunk::<4>() {
+            if class(a) & class(b) & class(c) & class(d) & SPACE == 0 {
+                break;
+            }
+            self.rest = rest;
+        }
+        while let [b, rest @ ..] = self.rest {
+            if class(*b) & SPACE == 0 {
+                break;
+            }
+            self.rest = rest;
+        }
     }
 
     /// Skips bytes while `keep` holds.

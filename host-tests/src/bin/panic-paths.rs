@@ -202,8 +202,9 @@ fn owner(source: &str) -> String {
         .any(|dir| source.contains(&format!("/{dir}")) || source.starts_with(dir))
     {
         "firmware".into()
-    } else if let Some(rest) = source.split("crates.io/").nth(1) {
-        rest.split('/').next().unwrap_or("crates.io").to_string()
+    } else if let Some(rest) = source.split("/registry/src/").nth(1) {
+        // `…/registry/src/<index>/<crate>-<version>/src/…`
+        rest.split('/').nth(1).unwrap_or("crates.io").to_string()
     } else if source.is_empty() {
         "unknown".into()
     } else {
