@@ -21,11 +21,6 @@
 
 use cortex_m_rt::{exception, ExceptionFrame};
 
-/// CFSR bit 16: UsageFault, undefined instruction.
-pub const CFSR_UNDEFINSTR: u32 = 1 << 16;
-/// HFSR bit 30: a configurable fault escalated to HardFault.
-pub const HFSR_FORCED: u32 = 1 << 30;
-
 #[exception]
 unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
     // SAFETY: reads of the System Control Block's fault status registers,

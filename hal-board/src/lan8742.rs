@@ -230,10 +230,11 @@ mod tests {
         let mut bus = FakeBus::new(0);
         bus.reset_reads = 3;
         let mut waited = 0;
-        let mut phy = Lan8742::find(&mut bus).ok().unwrap();
-        assert_eq!(phy.reset(|ms| waited += ms), Ok(()));
+        {
+            let mut phy = Lan8742::find(&mut bus).ok().unwrap();
+            assert_eq!(phy.reset(|ms| waited += ms), Ok(()));
+        }
         assert_eq!(waited, 3);
-        drop(phy);
         assert_eq!(bus.writes, [(reg::BCR, BCR_RESET)]);
 
         let mut stuck = FakeBus::new(0);

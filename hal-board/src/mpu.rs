@@ -64,8 +64,9 @@ mod tests {
         assert_eq!(rbar, 0x2400_0010);
         // SIZE = 18: 2^19 bytes.
         assert_eq!((rasr >> 1) & 0x1f, 18);
-        // TEX 001, C 0, B 0, S 1: normal non-cacheable, shareable.
-        assert_eq!((rasr >> 16) & 0x3f, 0b001_1_0_0);
+        // TEX 001, S 1, C 0, B 0 (bits 21..16): normal non-cacheable,
+        // shareable.
+        assert_eq!((rasr >> 16) & 0x3f, 0b00_1100);
         assert_eq!(rasr & 1, 1);
         assert_eq!(non_cacheable(7, 0, 32).map(|r| r.0), Ok(0x17));
     }

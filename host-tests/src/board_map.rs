@@ -43,7 +43,11 @@ pub const PLACEMENTS: [Placement; 2] = [
         board: "nucleo-f767zi",
         dtcm: 0x2000_0000..0x2002_0000,
         // The DTCM (through the core's AHBS port), SRAM1 and SRAM2.
-        dma_reachable: &[0x2000_0000..0x2008_0000],
+        dma_reachable: &[
+            0x2000_0000..0x2002_0000,
+            0x2002_0000..0x2007_c000,
+            0x2007_c000..0x2008_0000,
+        ],
     },
     Placement {
         board: "nucleo-h743zi",

@@ -14,8 +14,11 @@ pub mod layouts {
 pub mod board_map;
 pub mod boards;
 pub mod counters;
+pub mod demo;
 pub mod fuzzing;
+pub mod hil;
 pub mod memory_map;
+pub mod probe;
 pub mod qemu;
 pub mod qemu_bench;
 pub mod sensor;
