@@ -47,7 +47,9 @@ const PSCSR_SPEED_MASK: u16 = 0b111;
 /// 64-bit serial frame, about 30 µs at the boards' 2 MHz MDC: never on the
 /// cycle's path.
 pub trait Mdio {
+    /// Register `reg` of the PHY at address `phy`.
     fn read(&mut self, phy: u8, reg: u8) -> u16;
+    /// Writes `value` to register `reg` of the PHY at address `phy`.
     fn write(&mut self, phy: u8, reg: u8, value: u16);
 }
 
@@ -63,7 +65,11 @@ pub enum Link {
     /// A link at a speed or duplex the MAC is not configured for (a
     /// partner that does not negotiate): reported down, frames would be
     /// lost.
-    Mismatch { mbit: u16, full_duplex: bool },
+    Mismatch {
+        /// 10 or 100.
+        mbit: u16,
+        full_duplex: bool,
+    },
 }
 
 impl Link {

@@ -54,7 +54,9 @@ pub const LATE_ONLY: u8 = 3;
 /// Why a run failed, and whether it was lateness alone.
 #[derive(Debug)]
 pub struct Failure {
+    /// What went wrong, for the person at the terminal.
     pub reason: String,
+    /// Every reply came and was right; only their timing failed.
     pub late_only: bool,
 }
 
@@ -134,6 +136,7 @@ pub struct Setup {
     /// The GSI folder to build the firmware from, when not the caller's
     /// environment (`--tcp`).
     pub build_gsi: Option<PathBuf>,
+    /// The device the firmware is built for.
     pub device: gsi_config::Device,
 }
 
@@ -184,8 +187,11 @@ pub fn qemu_ready(setup: &Setup) -> Vec<(&'static str, Duration)> {
 /// What a finished run leaves: the simulator's summary, the device's whole
 /// log, and why the firmware stopped if it did.
 pub struct Ran {
+    /// The simulator's summary of the counted run.
     pub summary: Summary,
+    /// Every line the device logged.
     pub log: Vec<String>,
+    /// Why the firmware stopped, if it did.
     pub stopped: Option<String>,
 }
 

@@ -102,6 +102,7 @@ pub struct DeviceFigures {
 }
 
 impl DeviceFigures {
+    /// The figures in a device's whole log.
     pub fn of(log: &[String]) -> DeviceFigures {
         let records: Vec<Record> = log.iter().filter_map(|l| Record::parse(l)).collect();
         let answered: Vec<&Record> = records
@@ -208,6 +209,7 @@ pub struct Fault {
 }
 
 impl Fault {
+    /// The registers of a `HardFault at PC …` log line.
     pub fn parse(line: &str) -> Option<Fault> {
         let (_, rest) = line.split_once("HardFault at ")?;
         let words: Vec<&str> = rest.split_whitespace().collect();

@@ -9,7 +9,7 @@
 //!   reaches it in one cycle, the caches never hold it, and nothing but the
 //!   core writes it;
 //! - `DMA_RAM`: SRAM1 + SRAM2 (F767) or the AXI SRAM (H743): the Ethernet
-//!   DMA rings and nothing else, in section `.eth_dma` ([`packet_queue`]).
+//!   DMA rings and nothing else, in section `.eth_dma` (`packet_queue`).
 //!   The H743's Ethernet DMA cannot reach its DTCM; the F767's could, but
 //!   the rings would take DTCM from the stack;
 //! - `__uncached_start` / `__uncached_size`: the window the MPU makes
@@ -63,8 +63,10 @@ pub(super) fn packet_queue() -> Option<&'static mut PacketQueue<TX_FRAMES, RX_FR
 /// The MPU window and what the caches were left as, for the log.
 #[derive(Clone, Copy, Debug, defmt::Format)]
 pub struct Caches {
+    /// The MPU's non-cacheable window: its first address and size.
     pub uncached_start: u32,
     pub uncached_size: u32,
+    /// Whether the data cache is on (off with the `dcache-off` feature).
     pub data_cache: bool,
 }
 
