@@ -11,11 +11,15 @@ pub mod layouts {
     include!(concat!(env!("OUT_DIR"), "/layouts.rs"));
 }
 
+pub mod board_map;
 pub mod boards;
 pub mod counters;
+pub mod demo;
 pub mod differential;
 pub mod fuzzing;
+pub mod hil;
 pub mod memory_map;
+pub mod probe;
 pub mod qemu;
 pub mod qemu_bench;
 pub mod sensor;
