@@ -249,8 +249,11 @@ fn wrong_id_echo_trips_the_verdict_m8() {
     let (addr, stop) = fake_sensor(Duration::ZERO, |id| Some(reply(id.wrapping_add(1))));
     let s = against(addr, None, 100);
     stop.store(true, Ordering::Relaxed);
-    // A few replies may count as late rather than wrong on a loaded machine.
-    assert!(s.wrong_id >= 90, "{}", s.wrong_id);
+    // Tripping MaxLost on wrong Ids takes 30 of them in a row. On a loaded
+    // 2-core machine (a build and a fuzzer beside the test) 24 to 34 of the
+    // 100 replies were counted late rather than wrong, so the bound is the
+    // verdict's own, not "nearly all".
+    assert!(s.wrong_id >= 30, "{}", s.wrong_id);
     assert!(!s.passed());
     let reason = s.supervision_tripped.unwrap_or_default();
     assert!(
