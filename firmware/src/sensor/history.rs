@@ -126,7 +126,7 @@ mod tests {
     #[test]
     fn keeps_the_last_n_newest_first() {
         let mut h = History::<u32, 3>::EMPTY;
-        assert!(h.is_empty() && h.latest().is_none() && h.len() == 0);
+        assert!(h.is_empty() && h.latest().is_none() && h.iter().count() == 0);
         for i in 1..=5 {
             h.push(at(i * 10, i as u32));
         }
