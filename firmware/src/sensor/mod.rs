@@ -22,7 +22,7 @@
 //! Time alignment (T2): the robot's data is ~8 ms old (feedback) or 24–60
 //! ms ahead (planned), stamped on the controller's clock. [`CycleInfo`]
 //! carries the device time each robot message arrived and the controller's
-//! `Ts` ([`RobotClock`]), which map a controller time to a device time,
+//! `Ts` ([`RobotClock`](crate::engine::RobotClock)), which map a controller time to a device time,
 //! and [`History::closest`] finds the sample of that instant.
 //!
 //! The board hands the sampling half its peripherals through `hal-board`
