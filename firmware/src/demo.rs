@@ -1,25 +1,11 @@
-//! The demo application every board runs: a distance sensor on the robot's
-//! tool. A sampler publishes distance readings (simulated on the host and
-//! in QEMU, an ADC on the STM32 boards); each cycle the application
-//! low-pass filters the latest reading and projects it along the tool's z
-//! axis from the pose the robot sent, giving the measured point in robot
-//! coordinates.
-//!
-//! It works with any layout: it looks for the first `frame` field of the
-//! robot's properties (the pose), and writes into the first `real` array
-//! of the device property being sent (`AppData` in the manual's example):
-//! `[distance, x, y, z, age_ms]`, as many as fit; a `string` field gets a
-//! status word (`OK`, `NO SAMPLE`, `STALE`).
+//! What the example sensors ([`crate::sensors`]) are made of, for any
+//! sensor to use: a low-pass filter, the tool's axis from a pose, a point
+//! projected along it, and a simulated distance for where no sensor is
+//! attached (the QEMU board, `cargo sensor-host`).
 
-use crate::engine::{Application, CycleInfo, Instant};
-use crate::properties::{DeviceSet, RobotSet};
-use crate::sample::SampleReader;
-use crate::schema::{FieldMut, FieldRef, MAX_FIELDS};
+use crate::engine::Instant;
 use crate::value::Frame;
 use micromath::F32Ext;
-
-/// A reading older than this is reported `STALE` (and not used).
-pub const STALE_AFTER_US: u64 = 100_000;
 
 /// First-order low-pass over the distance readings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,78 +65,6 @@ pub fn project(pose: &Frame, distance: f32) -> [f32; 3] {
 pub fn simulated_distance(t: Instant) -> f32 {
     let s = t.as_micros() as f32 / 1_000_000.0;
     150.0 + 20.0 * F32Ext::sin(0.5 * s) + 0.3 * F32Ext::sin(37.0 * s)
-}
-
-/// The demo application, reading from the sampler's [`SampleReader`].
-pub struct DemoApp<'a> {
-    reader: SampleReader<'a, 1>,
-    filter: LowPass,
-}
-
-impl<'a> DemoApp<'a> {
-    /// Reads distances (mm, `values[0]`) from `reader`, filtered with
-    /// `alpha` = 0.3.
-    pub fn new(reader: SampleReader<'a, 1>) -> Self {
-        DemoApp {
-            reader,
-            filter: LowPass::new(0.3),
-        }
-    }
-}
-
-fn first_frame<R: RobotSet>(robot: &R) -> Option<Frame> {
-    (0..R::WIRE_NAMES.len()).find_map(|p| {
-        (0..MAX_FIELDS)
-            .map_while(|i| robot.field(p, i))
-            .find_map(|f| match f {
-                FieldRef::Frame(f) => Some(*f),
-                _ => None,
-            })
-    })
-}
-
-impl<R: RobotSet, D: DeviceSet> Application<R, D> for DemoApp<'_> {
-    fn cycle(&mut self, robot: &R, device: &mut D, info: &CycleInfo<'_>) {
-        let reading = self.reader.latest();
-        let age_us = reading.map(|r| info.now.micros_since(r.time));
-        let status: &str = match age_us {
-            None => "NO SAMPLE",
-            Some(age) if age > STALE_AFTER_US => "STALE",
-            Some(_) => "OK",
-        };
-        let distance = match (reading, status) {
-            (Some(r), "OK") => Some(self.filter.update(r.values[0])),
-            _ => self.filter.value(),
-        };
-        let point = match (first_frame(robot), distance) {
-            (Some(pose), Some(d)) => project(&pose, d),
-            _ => [0.0; 3],
-        };
-        let age_ms = age_us.map_or(-1.0, |us| us as f32 / 1000.0);
-        let out = [
-            distance.unwrap_or(0.0),
-            point[0],
-            point[1],
-            point[2],
-            age_ms,
-        ];
-        for i in 0..MAX_FIELDS {
-            match device.field_mut(info.sending, i) {
-                None => break,
-                Some(FieldMut::Reals(values)) => {
-                    for (slot, v) in values.iter_mut().zip(out) {
-                        *slot = v;
-                    }
-                    break;
-                }
-                Some(FieldMut::Str(s)) => {
-                    s.clear();
-                    let _ = s.push_str(status);
-                }
-                Some(_) => {}
-            }
-        }
-    }
 }
 
 #[cfg(test)]

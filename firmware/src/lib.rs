@@ -10,10 +10,14 @@
 //! - [`value`]: the RRI value types (exact time, frame, joints, strings).
 //! - [`schema`]: the vocabulary the generated layouts are written in;
 //!   [`properties`]: how the engine sees several properties per direction.
+//! - [`sensor`]: the one trait an integrator implements for their measuring
+//!   device; [`sensors`]: the worked examples and the one `RRI_SENSOR`
+//!   chose.
 //!
 //! Rules: no heap, no recursion, no panics on any input; every buffer is
 //! sized by a generated constant.
 #![cfg_attr(not(test), no_std)]
+// `sample` is the one exception (its module doc argues the soundness).
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 // The cycle path must not panic on any input: no panicking index, no
@@ -32,6 +36,10 @@
     )
 )]
 
+// Sensor files say `rri_firmware::…`, inside this crate (the examples, and
+// the file `RRI_SENSOR` names) as outside it.
+extern crate self as rri_firmware;
+
 #[cfg(feature = "codec-baseline")]
 pub mod baseline;
 #[cfg(feature = "bench")]
@@ -46,6 +54,8 @@ pub mod network;
 pub mod properties;
 pub mod sample;
 pub mod schema;
+pub mod sensor;
+pub mod sensors;
 pub mod snapshot;
 pub mod tcp;
 pub mod value;

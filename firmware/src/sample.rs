@@ -1,87 +1,62 @@
-//! Sampling runs elsewhere (a lower-priority task, an interrupt); the cycle
-//! needs the latest consistent reading at once, without blocking. This is a
-//! wait-free triple buffer for one writer and one reader, built on atomics
-//! only (no locks, no `unsafe`): the writer fills the slot nobody reads and
-//! swaps it into the middle; the reader swaps the middle out when it is
-//! fresh. Neither ever waits for the other, whatever their priorities, so a
-//! cycle that preempts the sampler mid-write still gets a whole reading.
+//! Sampling runs elsewhere (the background executor, an interrupt); the
+//! cycle needs the latest consistent samples at once, without blocking.
+//! This is a wait-free triple buffer for one writer and one reader: the
+//! writer fills the slot nobody reads and swaps it into the middle; the
+//! reader swaps the middle out when it is fresh. Neither ever waits for
+//! the other, whatever their priorities, so a cycle that preempts the
+//! sampler mid-write still gets a whole value, and reading costs the cycle
+//! one atomic swap, never a copy.
+//!
+//! It holds any `Copy` value: the firmware puts a sensor's whole
+//! [`History`](crate::sensor::History) of timestamped samples in it, so the
+//! sample type is the sensor's choice (see [`crate::sensor`]).
+//!
+//! # Why the `unsafe` here is sound
+//!
+//! The three slots are `UnsafeCell`s: the only `unsafe` of the firmware
+//! library, kept to this module. Each of the three slot indices belongs at
+//! any moment to exactly one party: the writer's `back`, the reader's
+//! `front`, or the shared `middle`. An index changes hands only through an
+//! atomic swap with `middle`, which gives the caller the middle's index and
+//! takes the caller's, so no two parties ever hold the same index. The
+//! writer only touches the slot of `back`, the reader only the slot of
+//! `front`. The swaps are `AcqRel`: the writer's release publishes what it
+//! wrote before the reader's acquire takes that slot; the reader's release
+//! orders its last reads of a slot before the writer can take it back.
+//! There is one writer and one reader ([`SampleCell::split`] hands them out
+//! once), and each needs `&mut self`, so neither end can race itself.
+#![allow(unsafe_code)]
 
-use crate::engine::Instant;
-use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
+use core::cell::UnsafeCell;
+use core::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 
-/// A reading: `N` values and when the sampler took them (T2: the device's
-/// own clock, at the moment of sampling).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Reading<const N: usize> {
-    /// The sensor's values, in the application's order and units.
-    pub values: [f32; N],
-    /// When they were sampled, on the device clock (T2).
-    pub time: Instant,
-}
-
-/// One slot: values as `f32` bits and the time in two halves (the MCU has
-/// no 64-bit atomics).
-struct Slot<const N: usize> {
-    values: [AtomicU32; N],
-    time_lo: AtomicU32,
-    time_hi: AtomicU32,
-}
-
-impl<const N: usize> Slot<N> {
-    const fn new() -> Self {
-        Slot {
-            values: [const { AtomicU32::new(0) }; N],
-            time_lo: AtomicU32::new(0),
-            time_hi: AtomicU32::new(0),
-        }
-    }
-
-    fn store(&self, r: &Reading<N>) {
-        for (a, v) in self.values.iter().zip(r.values) {
-            a.store(v.to_bits(), Ordering::Relaxed);
-        }
-        self.time_lo.store(r.time.0 as u32, Ordering::Relaxed);
-        self.time_hi
-            .store((r.time.0 >> 32) as u32, Ordering::Relaxed);
-    }
-
-    fn load(&self) -> Reading<N> {
-        let mut values = [0.0; N];
-        for (v, a) in values.iter_mut().zip(&self.values) {
-            *v = f32::from_bits(a.load(Ordering::Relaxed));
-        }
-        let lo = u64::from(self.time_lo.load(Ordering::Relaxed));
-        let hi = u64::from(self.time_hi.load(Ordering::Relaxed));
-        Reading {
-            values,
-            time: Instant(hi << 32 | lo),
-        }
-    }
-}
-
-/// Bit 2 of the shared state: the middle slot holds a reading the reader
-/// has not taken yet. Bits 0–1: the middle slot's index.
+/// Bit 2 of the shared state: the middle slot holds a value the reader has
+/// not taken yet. Bits 0–1: the middle slot's index.
 const FRESH: u8 = 0b100;
 const INDEX: u8 = 0b011;
 
 /// The shared part; put it in a `static` and [`SampleCell::split`] it once.
-pub struct SampleCell<const N: usize> {
-    slots: [Slot<N>; 3],
+pub struct SampleCell<T> {
+    slots: [UnsafeCell<T>; 3],
     middle: AtomicU8,
     split: AtomicBool,
 }
 
-impl<const N: usize> Default for SampleCell<N> {
-    fn default() -> Self {
-        Self::new()
-    }
-}
+// SAFETY: the slots are only reached through the one writer and the one
+// reader, each owning a different slot at any time (see the module doc);
+// a value moves between threads (or priorities), hence `T: Send`.
+unsafe impl<T: Send> Sync for SampleCell<T> {}
 
-impl<const N: usize> SampleCell<N> {
-    /// An empty cell, not split yet (`const`, for a `static`).
-    pub const fn new() -> Self {
+impl<T: Copy> SampleCell<T> {
+    /// A cell whose reader sees `initial` until the first publish (`const`,
+    /// for a `static`).
+    pub const fn new(initial: T) -> Self {
         SampleCell {
-            slots: [const { Slot::new() }; 3],
+            slots: [
+                UnsafeCell::new(initial),
+                UnsafeCell::new(initial),
+                UnsafeCell::new(initial),
+            ],
             middle: AtomicU8::new(1),
             split: AtomicBool::new(false),
         }
@@ -89,7 +64,7 @@ impl<const N: usize> SampleCell<N> {
 
     /// The writer and the reader. Only the first call gets them: there is
     /// exactly one of each.
-    pub fn split(&self) -> Option<(SampleWriter<'_, N>, SampleReader<'_, N>)> {
+    pub fn split(&self) -> Option<(SampleWriter<'_, T>, SampleReader<'_, T>)> {
         if self.split.swap(true, Ordering::AcqRel) {
             return None;
         }
@@ -101,52 +76,56 @@ impl<const N: usize> SampleCell<N> {
             SampleReader {
                 cell: self,
                 front: 0,
-                has_reading: false,
             },
         ))
     }
 
-    fn slot(&self, i: u8) -> Option<&Slot<N>> {
-        self.slots.get(usize::from(i & INDEX))
+    /// The slot of index `i` (only 0, 1 and 2 are ever handed out).
+    fn slot(&self, i: u8) -> &UnsafeCell<T> {
+        let [a, b, c] = &self.slots;
+        match i & INDEX {
+            0 => a,
+            1 => b,
+            _ => c,
+        }
     }
 }
 
 /// The sampler's end.
-pub struct SampleWriter<'a, const N: usize> {
-    cell: &'a SampleCell<N>,
+pub struct SampleWriter<'a, T> {
+    cell: &'a SampleCell<T>,
     back: u8,
 }
 
-impl<const N: usize> SampleWriter<'_, N> {
-    /// Publishes a reading; never waits.
-    pub fn publish(&mut self, reading: &Reading<N>) {
-        if let Some(slot) = self.cell.slot(self.back) {
-            slot.store(reading);
-        }
+impl<T: Copy> SampleWriter<'_, T> {
+    /// Publishes a copy of `value`; never waits.
+    pub fn publish(&mut self, value: &T) {
+        // SAFETY: `back` is the writer's own slot (module doc): the reader
+        // holds another one and the middle a third.
+        unsafe { *self.cell.slot(self.back).get() = *value };
         let previous = self.cell.middle.swap(self.back | FRESH, Ordering::AcqRel);
         self.back = previous & INDEX;
     }
 }
 
 /// The cycle's end.
-pub struct SampleReader<'a, const N: usize> {
-    cell: &'a SampleCell<N>,
+pub struct SampleReader<'a, T> {
+    cell: &'a SampleCell<T>,
     front: u8,
-    has_reading: bool,
 }
 
-impl<const N: usize> SampleReader<'_, N> {
-    /// The latest whole reading, `None` before the first; never waits.
-    pub fn latest(&mut self) -> Option<Reading<N>> {
+impl<T: Copy> SampleReader<'_, T> {
+    /// The latest whole value published (the cell's initial value before
+    /// the first); never waits, never copies.
+    pub fn latest(&mut self) -> &T {
         if self.cell.middle.load(Ordering::Acquire) & FRESH != 0 {
             let previous = self.cell.middle.swap(self.front, Ordering::AcqRel);
             self.front = previous & INDEX;
-            self.has_reading = true;
         }
-        if !self.has_reading {
-            return None;
-        }
-        self.cell.slot(self.front).map(Slot::load)
+        // SAFETY: `front` is the reader's own slot (module doc); the
+        // writer cannot take it back while this borrow of `self` lives,
+        // because that needs this reader's next `latest` (`&mut self`).
+        unsafe { &*self.cell.slot(self.front).get() }
     }
 }
 
@@ -155,47 +134,38 @@ mod tests {
     use super::*;
     extern crate std;
 
-    fn reading(v: f32, t: u64) -> Reading<2> {
-        Reading {
-            values: [v, -v],
-            time: Instant(t),
-        }
-    }
-
     #[test]
-    fn nothing_before_the_first_reading_then_always_the_latest() {
-        let cell = SampleCell::<2>::new();
+    fn the_initial_value_before_the_first_publish_then_always_the_latest() {
+        let cell = SampleCell::new([0u64; 2]);
         let (mut w, mut r) = cell.split().expect("first split");
         assert!(cell.split().is_none(), "one writer, one reader");
-        assert_eq!(r.latest(), None);
-        w.publish(&reading(1.0, 10));
-        w.publish(&reading(2.0, 20));
-        assert_eq!(r.latest(), Some(reading(2.0, 20)));
-        assert_eq!(r.latest(), Some(reading(2.0, 20)), "kept until a newer one");
-        w.publish(&reading(3.0, u64::MAX));
-        assert_eq!(r.latest(), Some(reading(3.0, u64::MAX)));
+        assert_eq!(*r.latest(), [0, 0]);
+        w.publish(&[1, 10]);
+        w.publish(&[2, 20]);
+        assert_eq!(*r.latest(), [2, 20]);
+        assert_eq!(*r.latest(), [2, 20], "kept until a newer one");
+        w.publish(&[3, u64::MAX]);
+        assert_eq!(*r.latest(), [3, u64::MAX]);
     }
 
     #[test]
-    fn a_concurrent_reader_only_ever_sees_whole_readings() {
-        // values[1] == -values[0] and time == values[0] in every reading
-        // published; a torn read would break one of them.
-        static CELL: SampleCell<2> = SampleCell::new();
+    fn a_concurrent_reader_only_ever_sees_whole_values() {
+        // Every value published has all 16 words equal; a torn read would
+        // mix two of them.
+        static CELL: SampleCell<[u64; 16]> = SampleCell::new([0; 16]);
         let (mut w, mut r) = CELL.split().expect("split");
         std::thread::scope(|s| {
             s.spawn(move || {
-                for i in 1..200_000u32 {
-                    w.publish(&reading(i as f32, u64::from(i) << 20));
+                for i in 1..200_000u64 {
+                    w.publish(&[i; 16]);
                 }
             });
-            let mut last = 0.0;
+            let mut last = 0;
             for _ in 0..200_000 {
-                if let Some(x) = r.latest() {
-                    assert_eq!(x.values[1], -x.values[0]);
-                    assert_eq!(x.time.0, (x.values[0] as u64) << 20);
-                    assert!(x.values[0] >= last, "never older than before");
-                    last = x.values[0];
-                }
+                let x = *r.latest();
+                assert!(x.iter().all(|&v| v == x[0]), "torn: {x:?}");
+                assert!(x[0] >= last, "never older than before");
+                last = x[0];
             }
         });
     }

@@ -1,15 +1,15 @@
 //! # hal-board: the only crate that names a chip
 //!
 //! A board supplies exactly what the firmware cannot know: its network
-//! driver, its time driver, its LEDs, a sample source for the demo
-//! application, a watchdog, its interrupt vector and logger. Everything else
+//! driver, its time driver, its LEDs, the inputs a sensor samples
+//! ([`io::Inputs`]), a watchdog, its interrupt vector and logger. Everything else
 //! (protocol, codec, cycle engine, the firmware's tasks) lives in
 //! `rri-firmware` and never sees a register.
 //!
 //! Boards: `mps2-an500` (QEMU, [`lan9118`] over MMIO), `nucleo-f767zi` and
 //! `nucleo-h743zi` (embassy-stm32; one shared `nucleo` module, one chip file
 //! each). Each board is one module behind one cargo feature and exports the
-//! same names (see [`board`]): `init()`, `Board`, `Net`, `Leds`, `Sampler`,
+//! same names (see [`board`]): `init()`, `Board`, `Net`, `Leds`, `Inputs`,
 //! `Watchdog`, `start_urgent_executor()`, `run_background()`, `cycle_counter()`,
 //! `exit()`.
 //! Chip-only dependencies are gated to `target_os = "none"`, so the host
@@ -18,6 +18,7 @@
 //! the receive ring's size plain arithmetic: all unit-tested on the host.
 #![cfg_attr(not(test), no_std)]
 
+pub mod io;
 pub mod lan8742;
 pub mod lan9118;
 pub mod mac;

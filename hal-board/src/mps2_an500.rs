@@ -10,8 +10,9 @@
 //! - the urgent executor on spare IRQ 30 (network and cycle run there) and
 //!   the background executor on spare IRQ 31, with thread mode idling in
 //!   `wfi` (see [`run_background`]);
-//! - LEDs: the FPGA's two user LEDs; no ADC is modelled, so the sample
-//!   source has nothing and the firmware simulates its readings;
+//! - LEDs: the FPGA's two user LEDs; no ADC is modelled, so the sensor's
+//!   inputs are [`crate::io::Simulated`] and the firmware asks the sensor to
+//!   simulate its samples;
 //! - watchdog: the CMSDK watchdog (NMI, then reset);
 //! - defmt over semihosting (QEMU's stdout), semihosting exit codes, a
 //!   panic handler that logs and exits with status 101, and the HardFault
@@ -99,7 +100,8 @@ pub type Net = Lan9118<Mmio>;
 pub struct Board {
     pub net: Net,
     pub leds: Leds,
-    pub sampler: Sampler,
+    /// What the sensor samples: nothing real here (simulated).
+    pub inputs: Inputs,
     pub watchdog: Watchdog,
     /// Seed for the network stack (TCP sequence numbers, ports). QEMU has no
     /// RNG; a constant keeps runs (and the bench) repeatable.
@@ -132,7 +134,7 @@ pub fn init() -> Result<Board, InitError> {
     Ok(Board {
         net,
         leds: Leds { bits: 0 },
-        sampler: Sampler,
+        inputs: crate::io::Simulated,
         watchdog: Watchdog,
         seed: 0x5252_4900_0000_0001,
     })
@@ -148,7 +150,7 @@ pub fn start_urgent_executor() -> SendSpawner {
 
 static BACKGROUND: InterruptExecutor = InterruptExecutor::new();
 
-/// Runs the background tasks (sampler, housekeeping) on an interrupt
+/// Runs the background tasks (the sensor's sampler, housekeeping) on an interrupt
 /// executor below the urgent one, and idles thread mode in `wfi`.
 ///
 /// Why not embassy's thread-mode executor, as on the NUCLEO boards: it
@@ -289,15 +291,9 @@ impl Leds {
     }
 }
 
-/// The demo's distance input. QEMU models no ADC: `None`, and the firmware
-/// simulates the reading.
-pub struct Sampler;
-
-impl Sampler {
-    pub fn read(&mut self) -> Option<f32> {
-        None
-    }
-}
+/// The sensor's inputs. QEMU models no ADC: every sample is simulated
+/// (the sensor's `simulate`).
+pub type Inputs = crate::io::Simulated;
 
 /// The CMSDK watchdog: not fed for `timeout_ms`, it raises NMI, which
 /// resets the board.

@@ -51,6 +51,7 @@ pub const BOARDS: [Board; 2] = [
 /// firmware's default GSI folder: `RRI_GSI_DIR` and `RRI_DEVICE` are
 /// cleared) and copies the ELF to `target/boards/<name>.elf`.
 pub fn build(board: &Board) -> Result<PathBuf, String> {
+    crate::mcu_target::ensure()?;
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let status = Command::new(&cargo)
         .current_dir(crate::workspace())

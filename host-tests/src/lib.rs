@@ -18,6 +18,7 @@ pub mod demo;
 pub mod differential;
 pub mod fuzzing;
 pub mod hil;
+pub mod mcu_target;
 pub mod memory_map;
 pub mod probe;
 pub mod qemu;

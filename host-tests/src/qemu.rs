@@ -82,6 +82,7 @@ pub fn build_board(
     dir: &str,
     name: &str,
 ) -> Result<PathBuf, String> {
+    crate::mcu_target::ensure()?;
     let ws = crate::workspace();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut features = board_features.to_string();

@@ -13,10 +13,11 @@ use embassy_net::StackResources;
 use embassy_time::{Duration, MockDriver};
 use host_tests::layouts::anydevice::{self as layout, SensDataMessage};
 use rri_firmware::codec::decode;
-use rri_firmware::demo::{simulated_distance, DemoApp};
 use rri_firmware::engine::{Clock, Engine, SensorState};
 use rri_firmware::net::{Cycle, EmbassyClock, UdpBuffers};
-use rri_firmware::sample::{Reading, SampleCell};
+use rri_firmware::sample::SampleCell;
+use rri_firmware::sensor::{Ring, Sampler, SensorApp, Simulated};
+use rri_firmware::sensors::distance::Distance;
 use smoltcp::wire::{
     ArpOperation, ArpPacket, ArpRepr, EthernetAddress, EthernetFrame, EthernetProtocol,
     EthernetRepr, IpProtocol, Ipv4Address, Ipv4Packet, Ipv4Repr, UdpPacket, UdpRepr,
@@ -171,21 +172,20 @@ fn with_udp_device<A>(
 #[test]
 fn thousand_cycles_over_embassy_net_with_real_frames() {
     let device_ip = layout::NETWORK_IPV4.expect("the example's address is IPv4");
-    let cell = SampleCell::<1>::new();
-    let (mut sampler, reader) = cell.split().expect("split");
-    let mut app = DemoApp::new(reader);
+    let cell = SampleCell::new(Ring::EMPTY);
+    let (writer, reader) = cell.split().expect("split");
+    type Robot = layout::RobotProperties;
+    type Device = layout::DeviceProperties;
+    let mut sampler = Sampler::<Distance, Robot, Device>::new(writer);
+    let mut app = SensorApp::<Distance, Robot, Device>::new(reader);
     let mut engine: Engine<layout::RobotProperties, layout::DeviceProperties> =
         Engine::new(layout::ENGINE_CONFIG);
     let clock = EmbassyClock;
     with_udp_device(&mut engine, &mut app, |step, to_device, from_device| {
         let mut replies = 0;
         for cycle in 0..1000u32 {
-            // The sampler publishes a reading, then the robot's message arrives.
-            let now = clock.now();
-            sampler.publish(&Reading {
-                values: [simulated_distance(now)],
-                time: now,
-            });
+            // The sampler takes a sample, then the robot's message arrives.
+            sampler.step(&mut Simulated, clock.now());
             let id = 1_000 + cycle;
             let x = 400.0 + cycle as f32 * 0.5;
             let request = format!(

@@ -3,10 +3,11 @@
 //!
 //! This image runs what every board runs per robot message and per poll —
 //! the engine's `on_message` (peer check, decode, Id accounting,
-//! supervision, the demo application, encode), its `poll`, the TCP framer
+//! supervision, the sensor's cycle half (`sensors::Active`, the file
+//! `RRI_SENSOR` names), encode), its `poll`, the TCP framer
 //! and the stall guard — on inputs the optimizer cannot see (a datagram of
 //! any length and content from any source, any time), built with the
-//! firmware profile (opt-level "z", fat LTO): the code the boards run.
+//! firmware profile (fat LTO): the code the boards run.
 //! Every panic path the optimizer could not remove is still in it as a
 //! call to a `core` panic entry; the check disassembles the image, finds
 //! each such call and the source line it comes from, and fails if any is
@@ -18,10 +19,11 @@
 
 use core::hint::black_box;
 use cortex_m_rt::entry;
-use rri_firmware::demo::DemoApp;
 use rri_firmware::engine::{Clock, Endpoint, Engine, Instant, Outcome};
 use rri_firmware::layout::{self, DeviceEngine};
 use rri_firmware::sample::SampleCell;
+use rri_firmware::sensor::{Ring, Sampler, Sensor, SensorApp, Simulated};
+use rri_firmware::sensors::Active;
 use rri_firmware::tcp::{Framer, StallGuard};
 
 /// Never reached when the check passes for the firmware's own code; the
@@ -42,7 +44,9 @@ impl Clock for Opaque {
     }
 }
 
-static SAMPLES: SampleCell<1> = SampleCell::new();
+type Samples = <Active as Sensor>::History;
+
+static SAMPLES: SampleCell<Samples> = SampleCell::new(<Samples as Ring<_>>::EMPTY);
 
 /// A deliberate panic path (feature `panic-check-selftest`): CI builds it
 /// too and expects the check to find it, so the check is known to bite.
@@ -59,12 +63,13 @@ fn selftest(_: &[u8]) -> u8 {
 #[entry]
 fn main() -> ! {
     let mut engine: DeviceEngine = Engine::new(layout::ENGINE_CONFIG);
-    let Some((_, reader)) = SAMPLES.split() else {
+    let Some((writer, reader)) = SAMPLES.split() else {
         loop {
             core::hint::spin_loop();
         }
     };
-    let mut app = DemoApp::new(reader);
+    let mut app = SensorApp::<Active>::new(reader);
+    let mut sampler = Sampler::<Active>::new(writer);
     let clock = Opaque;
     let mut datagram = [0u8; layout::MAX_RECEIVE_LEN + 1];
     let mut out = [0u8; layout::MAX_SEND_LEN];
@@ -75,6 +80,12 @@ fn main() -> ! {
         // `black_box`.
         let bytes: &[u8] = black_box(datagram.as_mut_slice());
         let from = black_box(Endpoint::new([10, 0, 0, 1], 3002));
+        // A sample at an opaque time, so the cycle half meets a history
+        // the optimizer cannot predict (its sampling half runs elsewhere
+        // on a board, never on this path).
+        if black_box(true) {
+            sampler.step(&mut Simulated, clock.now());
+        }
         let outcome = engine.on_message(&mut app, &clock, from, bytes, clock.now(), &mut out);
         if let Outcome::Reply { len, .. } = outcome {
             black_box(out.get(..len));

@@ -7,10 +7,13 @@
 //!   interrupts): the network stack's runner and the cycle (receive →
 //!   engine → reply). Nothing else can delay an answer.
 //! - background (below the urgent executor: the board's
-//!   `run_background`, thread mode or a low interrupt): the sampler
-//!   (100 Hz), housekeeping (10 Hz: LEDs, the watchdog, state changes and a
-//!   counter line per second in the log) and, in bench builds, the bench's
-//!   record logger.
+//!   `run_background`, thread mode or a low interrupt): the sensor's
+//!   sampler (its own rate: `Sensor::SAMPLE_EVERY_US`), housekeeping
+//!   (10 Hz: LEDs, the watchdog, state changes and a counter line per
+//!   second in the log) and, in bench builds, the bench's record logger.
+//!
+//! The sensor is `rri_firmware::sensors::Active`, the file `RRI_SENSOR`
+//! names: nothing here depends on its sample type.
 //!
 //! The watchers never hold the engine: the cycle publishes a
 //! [`Snapshot`] after each turn and they read the latest one.
@@ -25,13 +28,14 @@ use embassy_net::{Ipv4Address, Ipv4Cidr, Runner, Stack, StackResources, StaticCo
 use embassy_time::{Duration, Ticker};
 use hal_board::board;
 use rri_firmware::codec::DecodeErrorKind;
-use rri_firmware::demo::{simulated_distance, DemoApp};
 use rri_firmware::engine::{Clock, Engine, Outcome, SensorState};
 use rri_firmware::layout::{self, DeviceEngine, DeviceProperties, RobotProperties};
 use rri_firmware::net::{self, EmbassyClock, Monitor};
 use rri_firmware::network;
-use rri_firmware::sample::{Reading, SampleCell, SampleReader, SampleWriter};
+use rri_firmware::sample::{SampleCell, SampleReader, SampleWriter};
 use rri_firmware::schema::Protocol;
+use rri_firmware::sensor::{Ring, Sampler, Sensor, SensorApp};
+use rri_firmware::sensors::Active;
 use rri_firmware::snapshot::{Published, Snapshot};
 use static_cell::{ConstStaticCell, StaticCell};
 
@@ -56,7 +60,10 @@ type Nic = rri_firmware::bench::Tap<board::Net>;
 #[cfg(not(feature = "bench"))]
 type Nic = board::Net;
 
-static SAMPLES: SampleCell<1> = SampleCell::new();
+/// The sensor's history of samples, as its sampler publishes it.
+type Samples = <Active as Sensor>::History;
+
+static SAMPLES: SampleCell<Samples> = SampleCell::new(<Samples as Ring<_>>::EMPTY);
 static PUBLISHED: Published = Published::new();
 
 /// Spawns a task at start-up; a full task pool is a build mistake.
@@ -113,9 +120,9 @@ fn main() -> ! {
     let urgent: SendSpawner = board::start_urgent_executor();
     spawn!(urgent, network(nic, b.seed, reader));
 
-    let (sampler_source, leds, watchdog) = (b.sampler, b.leds, b.watchdog);
+    let (inputs, leds, watchdog) = (b.inputs, b.leds, b.watchdog);
     board::run_background(move |s| {
-        spawn!(s, sampler(sampler_source, writer));
+        spawn!(s, sampler(inputs, writer));
         spawn!(s, housekeeping(leds, watchdog));
         #[cfg(feature = "bench")]
         spawn!(s, bench_log());
@@ -125,7 +132,7 @@ fn main() -> ! {
 /// Builds the network stack on the urgent executor (the stack is not
 /// `Send`: it must live where it runs) and starts the runner and the cycle.
 #[embassy_executor::task]
-async fn network(nic: Nic, seed: u64, reader: SampleReader<'static, 1>) {
+async fn network(nic: Nic, seed: u64, reader: SampleReader<'static, Samples>) {
     // SAFETY: this task runs on the urgent executor and spawns onto it.
     let spawner = unsafe { Spawner::for_current_executor() }.await;
     let [a, b, c, d] = ADDRESS;
@@ -147,14 +154,14 @@ async fn net_runner(mut runner: Runner<'static, Nic>) -> ! {
     runner.run().await
 }
 
-/// The cycle: the engine and the demo application over the configured
+/// The cycle: the engine and the sensor's cycle half over the configured
 /// channel (UDP or TCP).
 #[cfg(not(feature = "bench-floor"))]
 #[embassy_executor::task]
-async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, 1>) -> ! {
+async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, Samples>) -> ! {
     static ENGINE: StaticCell<DeviceEngine> = StaticCell::new();
     let engine = ENGINE.init_with(|| Engine::new(layout::ENGINE_CONFIG));
-    let mut app = DemoApp::new(reader);
+    let mut app = SensorApp::<Active>::new(reader);
     let mut monitor = Publisher { heartbeat: 0 };
     stack.wait_config_up().await;
     // Start-up is over (the network stack is built: its construction is the
@@ -201,7 +208,7 @@ async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, 1>) -> ! {
 /// own, recorded like a cycle (frame in → reply frame out). UDP only.
 #[cfg(feature = "bench-floor")]
 #[embassy_executor::task]
-async fn cycle(stack: Stack<'static>, _reader: SampleReader<'static, 1>) -> ! {
+async fn cycle(stack: Stack<'static>, _reader: SampleReader<'static, Samples>) -> ! {
     use embassy_futures::select::{select, Either};
     use embassy_net::udp::{PacketMetadata, UdpSocket};
     use embassy_time::Timer;
@@ -293,18 +300,16 @@ impl Monitor<RobotProperties, DeviceProperties> for Publisher {
     }
 }
 
-/// 100 Hz: the board's reading, or the simulated distance where the board
-/// has no sensor (QEMU).
+/// The sensor's sampling half, at its own rate: a sample from the board's
+/// inputs (simulated where the board has none: QEMU), stamped with the
+/// device time, and the history published for the cycle.
 #[embassy_executor::task]
-async fn sampler(mut source: board::Sampler, mut writer: SampleWriter<'static, 1>) -> ! {
-    let mut ticker = Ticker::every(Duration::from_millis(10));
+async fn sampler(mut inputs: board::Inputs, writer: SampleWriter<'static, Samples>) -> ! {
+    let mut sampler = Sampler::<Active>::new(writer);
+    let every = u64::from(<Active as Sensor>::SAMPLE_EVERY_US);
+    let mut ticker = Ticker::every(Duration::from_micros(every));
     loop {
-        let time = EmbassyClock.now();
-        let value = source.read().unwrap_or_else(|| simulated_distance(time));
-        writer.publish(&Reading {
-            values: [value],
-            time,
-        });
+        sampler.step(&mut inputs, EmbassyClock.now());
         ticker.next().await;
     }
 }

@@ -23,7 +23,7 @@ pub use ids::{ChannelIds, IdEvent, IdTracker};
 pub use peer::{Admit, Endpoint, PeerChange, PeerFilter, Pinned};
 pub use state::{ErrorCode, SensorState};
 pub use stats::{DropReason, Histogram, Stats};
-pub use time::{Clock, Instant};
+pub use time::{Clock, Instant, RobotClock};
 
 use crate::properties::{DeviceSet, RobotSet, MAX_PROPERTIES};
 use crate::value::Time;
@@ -41,6 +41,12 @@ pub struct CycleInfo<'a> {
     pub robot_id: Option<u32>,
     /// The robot's `Ts` of the last message (T2: its own clock).
     pub robot_ts: Option<Time>,
+    /// Device time this robot message arrived; `None` for a periodic send.
+    pub received: Option<Instant>,
+    /// The last robot message's `Ts` with the device time it arrived: maps
+    /// the robot's timestamps (feedback, planned; T2) to device time, where
+    /// the samples are. `None` until a message with a `Ts` arrived.
+    pub robot_clock: Option<RobotClock>,
     /// The robot property this message carried (its index, see the
     /// generated `RobotProperty`); `None` for a periodic send.
     pub arrived: Option<usize>,
@@ -98,6 +104,7 @@ pub struct Engine<R: RobotSet, D: DeviceSet> {
     device: D,
     last_rx: Option<Instant>,
     robot_ts: Option<Time>,
+    robot_clock: Option<RobotClock>,
     /// When each schedule's next periodic send is due: slot 0 is the reply
     /// property's (`send_period_ms`), slot `k` is `periodic[k - 1]`.
     next_send: [Option<Instant>; SCHEDULES],
@@ -136,6 +143,7 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
             device: D::default(),
             last_rx: None,
             robot_ts: None,
+            robot_clock: None,
             next_send: [None; SCHEDULES],
             own_id: 0,
             stranger_at: None,
@@ -315,14 +323,16 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
             }
         }
         self.last_rx = Some(received);
-        if decoded.ts.is_some() {
-            self.robot_ts = decoded.ts;
+        if let Some(ts) = decoded.ts {
+            self.robot_ts = Some(ts);
+            self.robot_clock = Some(RobotClock { ts, received });
         }
         self.account(property, decoded.id);
         Ok(Send {
             property: self.config.reply,
             id: decoded.id,
             arrived: Some(property),
+            received: Some(received),
         })
     }
 
@@ -341,6 +351,8 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
             now: clock.now(),
             robot_id: send.arrived.map(|_| send.id),
             robot_ts: self.robot_ts,
+            received: send.received,
+            robot_clock: self.robot_clock,
             arrived: send.arrived,
             sending: send.property,
             stats: &self.stats,
@@ -410,4 +422,6 @@ struct Send {
     property: usize,
     id: u32,
     arrived: Option<usize>,
+    /// When the robot message arrived (device clock).
+    received: Option<Instant>,
 }

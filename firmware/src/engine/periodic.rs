@@ -98,6 +98,7 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
             property,
             id: self.own_id,
             arrived: None,
+            received: None,
         };
         Some((to, send))
     }

@@ -20,8 +20,9 @@
 //! - the urgent executor on UART4's interrupt (the UART is unused);
 //! - LEDs: LD1 (green, PB0) shows the sensor state, LD2 the answered
 //!   cycles (PB7 on the F767ZI, PE1 on the H743ZI2);
-//! - sample source: ADC1 on the Arduino header's A0 (PA3), 0–3.3 V read as
-//!   0–[`RANGE_MM`] mm;
+//! - the sensor's inputs ([`Inputs`]): ADC1 on the Arduino header's A0
+//!   (PA3), 0–3.3 V read as 0.0–1.0 of full scale (what it measures is the
+//!   sensor's business: `rri_firmware::sensors`);
 //! - watchdog: the independent watchdog (its own 32 kHz oscillator; a
 //!   timeout resets the chip);
 //! - defmt over RTT (read by `probe-rs run`), a panic handler and a
@@ -66,8 +67,6 @@ embassy_stm32::bind_interrupts!(struct Irqs {
     RNG => embassy_stm32::rng::InterruptHandler<embassy_stm32::peripherals::RNG>;
 });
 
-/// The analog input's full scale, as a distance for the demo application.
-pub const RANGE_MM: f32 = 300.0;
 /// Ethernet transmit frames: a reply in up to three fragments (any reply
 /// the IP stack can fragment: 4,096 bytes) and an ARP answer. A full ring
 /// only makes the stack wait; nothing is lost.
@@ -89,7 +88,9 @@ pub type Net = Ethernet<'static, ETH, phy::CachedLink>;
 pub struct Board {
     pub net: Net,
     pub leds: Leds,
-    pub sampler: Sampler,
+    /// What the sensor samples (its `sample` reads them on the
+    /// background executor).
+    pub inputs: Inputs,
     pub watchdog: Watchdog,
     /// Seed for the network stack (TCP sequence numbers, ports): from the
     /// hardware RNG.
@@ -182,9 +183,9 @@ pub fn init() -> Result<Board, InitError> {
                 Output::new(chip::ld2!(p), Level::Low, Speed::Low),
             ],
         },
-        sampler: Sampler {
+        inputs: Inputs {
             adc: Adc::new(p.ADC1),
-            pin: p.PA3,
+            a0: p.PA3,
         },
         watchdog: Watchdog {
             peripheral: Some(chip::iwdg!(p)),
@@ -216,7 +217,7 @@ static LINK_MONITOR: embassy_sync::blocking_mutex::Mutex<
     core::cell::Cell<Option<phy::Monitor>>,
 > = embassy_sync::blocking_mutex::Mutex::new(core::cell::Cell::new(None));
 
-/// Runs the background tasks (sampler, housekeeping) and the board's PHY
+/// Runs the background tasks (the sensor's sampler, housekeeping) and the board's PHY
 /// monitor on embassy's thread-mode executor, which sleeps in `wfe`
 /// between polls (on silicon a real sleep; the QEMU board idles in `wfi`
 /// instead, see its `run_background`).
@@ -251,18 +252,22 @@ impl Leds {
     }
 }
 
-/// ADC1 on A0 (PA3).
-pub struct Sampler {
+/// The sensor's inputs: ADC1 on the Arduino header's A0 (PA3).
+pub struct Inputs {
     adc: Adc<'static, ADC1>,
-    pin: Peri<'static, PA3>,
+    a0: Peri<'static, PA3>,
 }
 
-impl Sampler {
-    /// One conversion (a few microseconds), scaled to 0..[`RANGE_MM`].
-    pub fn read(&mut self) -> Option<f32> {
+impl crate::io::Inputs for Inputs {
+    /// Channel 0 (A0): one conversion (a few microseconds) as a fraction
+    /// of the ADC's full scale (3.3 V).
+    fn analog(&mut self, channel: usize) -> Option<f32> {
+        if channel != 0 {
+            return None;
+        }
         let sample_time: SampleTime = chip::SAMPLE_TIME;
-        let raw = self.adc.blocking_read(&mut self.pin, sample_time);
-        Some(f32::from(raw) * (RANGE_MM / chip::ADC_FULL_SCALE))
+        let raw = self.adc.blocking_read(&mut self.a0, sample_time);
+        Some(f32::from(raw) / chip::ADC_FULL_SCALE)
     }
 }
 

@@ -72,6 +72,7 @@ fn llvm_objdump() -> Result<PathBuf, String> {
 }
 
 fn build(selftest: bool) -> Result<PathBuf, String> {
+    host_tests::mcu_target::ensure()?;
     let ws = host_tests::workspace();
     let features = if selftest {
         "panic-check,panic-check-selftest"

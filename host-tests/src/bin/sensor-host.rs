@@ -1,13 +1,18 @@
-//! `cargo sensor-host -- [--listen ADDR] [--udp|--tcp] [overrides]`
+//! `cargo sensor-host -- [--listen ADDR] [--udp|--tcp] [--replay FILE.csv]
+//! [overrides]`
 //!
-//! The firmware's cycle engine and demo application on the host, with std
-//! sockets, built for the same GSI configuration as the firmware
-//! (`RRI_GSI_DIR`, `RRI_DEVICE`). Logs state changes and one statistics
-//! line per second; Ctrl-C or SIGTERM prints a summary and exits 0.
+//! The firmware's cycle engine and sensor (the file `RRI_SENSOR` names,
+//! default the demo's distance sensor) on the host, with std sockets,
+//! built for the same GSI configuration as the firmware (`RRI_GSI_DIR`,
+//! `RRI_DEVICE`). Samples are the sensor's own `simulate`, or recorded
+//! ones replayed from a CSV file. Logs what it samples, state changes and
+//! one statistics line per second; Ctrl-C or SIGTERM prints a summary and
+//! exits 0.
 
 use clap::Parser;
-use host_tests::sensor::{run, SensorOptions};
+use host_tests::sensor::{run, Recording, SensorOptions, Source};
 use std::net::SocketAddr;
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -15,8 +20,8 @@ use std::sync::Arc;
 #[derive(Parser, Debug)]
 #[command(
     name = "cargo sensor-host",
-    about = "The sensor firmware's cycle engine and demo application on std sockets",
-    after_help = "Defaults come from the built configuration (Description.xml): the device's address and channel port, its protocol, TimeOut, MaxLost and DryRun."
+    about = "The sensor firmware's cycle engine and sensor (RRI_SENSOR) on std sockets",
+    after_help = "Defaults come from the built configuration (Description.xml): the device's address and channel port, its protocol, TimeOut, MaxLost and DryRun. The sensor is the file RRI_SENSOR named at build time (default firmware/src/sensors/distance.rs)."
 )]
 struct Args {
     /// Address and port to listen on (default: the configured device address and channel port).
@@ -40,6 +45,11 @@ struct Args {
     /// Send the reply property unprompted every MS ms (a multiple of 4; 0 = off).
     #[arg(long, value_name = "MS", value_parser = multiple_of_4)]
     send_period_ms: Option<u32>,
+    /// Recorded samples instead of simulated ones: rows `time_s,col1,col2,...` (a header line
+    /// and `#` comments allowed), replayed at their times, over and over; the columns after the
+    /// time go to the sensor's `replay`.
+    #[arg(long, value_name = "FILE.csv")]
+    replay: Option<PathBuf>,
 }
 
 fn multiple_of_4(text: &str) -> Result<u32, String> {
@@ -77,7 +87,16 @@ fn options(a: &Args) -> SensorOptions {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    let opts = options(&args);
+    let mut opts = options(&args);
+    if let Some(path) = &args.replay {
+        match Recording::read(path) {
+            Ok(r) => opts.source = Source::Replay(r),
+            Err(e) => {
+                eprintln!("error: --replay {e}");
+                return ExitCode::from(2);
+            }
+        }
+    }
     let stop = Arc::new(AtomicBool::new(false));
     let flag = stop.clone();
     if let Err(e) = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed)) {

@@ -1,15 +1,20 @@
-//! The host build of the sensor: the firmware's own cycle engine and demo
-//! application behind std sockets, for integrators without hardware (point
-//! a RobotStudio virtual controller or the robot simulator at it). Not a
-//! re-implementation: every message goes through `rri_firmware::engine`.
+//! The host build of the sensor: the firmware's own cycle engine and the
+//! integrator's sensor (`rri_firmware::sensors::Active`, the file
+//! `RRI_SENSOR` names, unchanged) behind std sockets, for integrators
+//! without hardware (point a RobotStudio virtual controller or the robot
+//! simulator at it). Not a re-implementation: every message goes through
+//! `rri_firmware::engine`, every sample through the sensor's `Sampler` and
+//! history as on a board; only the samples' source is the host's
+//! ([`Source`]: simulated, or a recorded CSV file).
 
-use rri_firmware::demo::{simulated_distance, DemoApp};
 use rri_firmware::engine::{
-    Clock, Config, Endpoint, Engine, ErrorCode, Instant, Outcome, SensorState, Stats,
+    Application, Clock, Config, Endpoint, Engine, ErrorCode, Instant, Outcome, SensorState, Stats,
 };
 use rri_firmware::layout;
 use rri_firmware::properties::{DeviceSet, RobotSet};
-use rri_firmware::sample::{Reading, SampleCell};
+use rri_firmware::sample::SampleCell;
+use rri_firmware::sensor::{Ring, Sampler, Sensor, SensorApp};
+use rri_firmware::sensors::Active;
 use std::io::{self, Write};
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -18,8 +23,11 @@ use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+mod source;
 mod tcp;
 mod udp;
+
+pub use source::{Recording, Source};
 
 /// Device time on the host: microseconds since the sensor started.
 #[derive(Clone, Copy, Debug)]
@@ -59,6 +67,8 @@ pub struct SensorOptions {
     pub stats_every: Option<Duration>,
     /// The device's name, for the log.
     pub device_name: &'static str,
+    /// Where the samples come from.
+    pub source: Source,
 }
 
 impl SensorOptions {
@@ -73,6 +83,7 @@ impl SensorOptions {
             config: layout::ENGINE_CONFIG,
             stats_every: Some(Duration::from_secs(1)),
             device_name: layout::DEVICE_NAME,
+            source: Source::Simulated,
         }
     }
 }
@@ -130,10 +141,11 @@ fn endpoint(addr: SocketAddr) -> Option<Endpoint> {
     }
 }
 
-/// Engine, application and bookkeeping of one run.
-struct Sensor<'a, 'w, R: RobotSet, D: DeviceSet> {
+/// Engine, application (the sensor's cycle half) and bookkeeping of one
+/// run.
+struct Node<'w, R: RobotSet, D: DeviceSet, A> {
     engine: Engine<R, D>,
-    app: DemoApp<'a>,
+    app: A,
     clock: HostClock,
     out: Vec<u8>,
     states: Vec<(f64, SensorState, Option<ErrorCode>)>,
@@ -142,7 +154,7 @@ struct Sensor<'a, 'w, R: RobotSet, D: DeviceSet> {
     stats_every: Option<Duration>,
 }
 
-impl<R: RobotSet, D: DeviceSet> Sensor<'_, '_, R, D> {
+impl<R: RobotSet, D: DeviceSet, A: Application<R, D>> Node<'_, R, D, A> {
     /// Logs a state change, if there was one.
     fn note_state(&mut self) {
         let now = (self.engine.state(), self.engine.error_code());
@@ -200,24 +212,57 @@ pub struct Background {
 }
 
 impl Background {
-    /// Starts it (UDP, or TCP) with `config`, for the layout the firmware
-    /// was built for; waits until it listens.
+    /// Starts the built sensor ([`Active`], simulated samples; UDP, or
+    /// TCP) with `config`, for the layout the firmware was built for;
+    /// waits until it listens.
     pub fn start(tcp: bool, config: Config) -> io::Result<Background> {
-        Self::start_layout::<
+        Self::start_sensor::<Active>(tcp, config, Source::Simulated)
+    }
+
+    /// Starts sensor `S` (any, for the built layout) fed by `source`: how
+    /// a test runs a sensor against the robot simulator.
+    pub fn start_sensor<S>(tcp: bool, config: Config, source: Source) -> io::Result<Background>
+    where
+        S: Sensor<layout::RobotProperties, layout::DeviceProperties> + 'static,
+    {
+        Self::start_with::<
+            S,
             layout::RobotProperties,
             layout::DeviceProperties,
             { layout::MAX_RECEIVE_LEN },
-        >(tcp, config, layout::DEVICE_NAME)
+        >(tcp, config, layout::DEVICE_NAME, source)
     }
 
     /// Starts it for another layout (`host_tests::layouts`): its property
-    /// sets `R`, `D` and its `MAX_RECEIVE_LEN` as `RX`.
+    /// sets `R`, `D` and its `MAX_RECEIVE_LEN` as `RX`, with the demo's
+    /// distance sensor (which works with any layout).
     pub fn start_layout<R, D, const RX: usize>(
         tcp: bool,
         config: Config,
         device_name: &'static str,
     ) -> io::Result<Background>
     where
+        R: RobotSet + Send + 'static,
+        D: DeviceSet + Send + 'static,
+    {
+        Self::start_with::<rri_firmware::sensors::distance::Distance, R, D, RX>(
+            tcp,
+            config,
+            device_name,
+            Source::Simulated,
+        )
+    }
+
+    /// The general form: sensor `S` on layout `R`, `D` (`RX`: its
+    /// `MAX_RECEIVE_LEN`).
+    pub fn start_with<S, R, D, const RX: usize>(
+        tcp: bool,
+        config: Config,
+        device_name: &'static str,
+        source: Source,
+    ) -> io::Result<Background>
+    where
+        S: Sensor<R, D> + 'static,
         R: RobotSet + Send + 'static,
         D: DeviceSet + Send + 'static,
     {
@@ -229,10 +274,11 @@ impl Background {
             config,
             stats_every: None,
             device_name,
+            source,
         };
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
-            run_layout::<R, D, RX>(&opts, &flag, Some(tx), &mut std::io::sink())
+            run_with::<S, R, D, RX>(&opts, &flag, Some(tx), &mut std::io::sink())
         });
         let addr = rx
             .recv_timeout(Duration::from_secs(5))
@@ -249,36 +295,40 @@ impl Background {
     }
 }
 
-/// Runs the host sensor until `stop` is set. `ready` receives the bound
-/// address (useful with port 0). Log lines (state changes, statistics) go
-/// to `log`.
+/// Runs the built sensor ([`Active`]) until `stop` is set. `ready` receives
+/// the bound address (useful with port 0). Log lines (what it samples,
+/// state changes, statistics) go to `log`.
 pub fn run(
     opts: &SensorOptions,
     stop: &AtomicBool,
     ready: Option<Sender<SocketAddr>>,
     log: &mut dyn Write,
 ) -> io::Result<SensorReport> {
-    run_layout::<layout::RobotProperties, layout::DeviceProperties, { layout::MAX_RECEIVE_LEN }>(
+    run_with::<Active, layout::RobotProperties, layout::DeviceProperties, { layout::MAX_RECEIVE_LEN }>(
         opts, stop, ready, log,
     )
 }
 
-/// [`run`] for any layout: its property sets `R`, `D` and its
-/// `MAX_RECEIVE_LEN` as `RX` (the TCP framer's size).
-pub fn run_layout<R: RobotSet, D: DeviceSet, const RX: usize>(
+/// [`run`] for any sensor `S` and layout: its property sets `R`, `D` and
+/// its `MAX_RECEIVE_LEN` as `RX` (the TCP framer's size).
+pub fn run_with<S: Sensor<R, D>, R: RobotSet, D: DeviceSet, const RX: usize>(
     opts: &SensorOptions,
     stop: &AtomicBool,
     ready: Option<Sender<SocketAddr>>,
     log: &mut dyn Write,
 ) -> io::Result<SensorReport> {
-    let cell = SampleCell::<1>::new();
-    let Some((mut sampler, reader)) = cell.split() else {
+    if let Source::Replay(r) = &opts.source {
+        r.check::<S, R, D>().map_err(io::Error::other)?;
+    }
+    let cell = SampleCell::new(<S::History as Ring<S::Sample>>::EMPTY);
+    let Some((writer, reader)) = cell.split() else {
         return Err(io::Error::other("sample cell already split"));
     };
     let clock = HostClock::new();
-    let mut sensor = Sensor {
+    let _ = writeln!(log, "sensor: {}", opts.source.describe::<S, R, D>());
+    let mut node = Node {
         engine: Engine::<R, D>::new(opts.config),
-        app: DemoApp::new(reader),
+        app: SensorApp::<S, R, D>::new(reader),
         clock,
         out: vec![0; D::MAX_SEND_LEN],
         states: Vec::new(),
@@ -286,38 +336,32 @@ pub fn run_layout<R: RobotSet, D: DeviceSet, const RX: usize>(
         last_stats: std::time::Instant::now(),
         stats_every: opts.stats_every,
     };
-    sensor.note_state();
+    node.note_state();
     let result = std::thread::scope(|s| {
-        // The sampler: a distance reading every millisecond, published
-        // without ever blocking the cycle.
+        // The sampling half, on a thread of its own (the board's background
+        // executor): never blocks the cycle, whatever it does.
         s.spawn(|| {
-            while !stop.load(Ordering::Relaxed) {
-                let now = clock.now();
-                sampler.publish(&Reading {
-                    values: [simulated_distance(now)],
-                    time: now,
-                });
-                std::thread::sleep(Duration::from_millis(1));
-            }
+            let mut sampler = Sampler::<S, R, D>::new(writer);
+            opts.source.run(&mut sampler, &clock, stop);
         });
         let r = if opts.tcp {
-            tcp::serve::<R, D, RX>(&mut sensor, opts, stop, ready)
+            tcp::serve::<R, D, _, RX>(&mut node, opts, stop, ready)
         } else {
-            udp::serve(&mut sensor, opts, stop, ready)
+            udp::serve(&mut node, opts, stop, ready)
         };
         stop.store(true, Ordering::Relaxed);
         r
     });
     if let Err(e) = result {
-        sensor.engine.init_failed();
-        sensor.note_state();
+        node.engine.init_failed();
+        node.note_state();
         return Err(e);
     }
-    let stats = sensor.engine.stats();
-    let _ = writeln!(sensor.log, "summary: {}", stats_line(&stats));
+    let stats = node.engine.stats();
+    let _ = writeln!(node.log, "summary: {}", stats_line(&stats));
     Ok(SensorReport {
         stats,
-        state: sensor.engine.state(),
-        states: sensor.states,
+        state: node.engine.state(),
+        states: node.states,
     })
 }

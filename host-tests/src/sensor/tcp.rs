@@ -1,8 +1,8 @@
 //! The host sensor over TCP (M10): a listener, the served connection and
 //! a standby one, each message framed by the firmware's own framer.
 
-use super::{endpoint, Sensor, SensorOptions};
-use rri_firmware::engine::Clock;
+use super::{endpoint, Node, SensorOptions};
+use rri_firmware::engine::{Application, Clock};
 use rri_firmware::properties::{DeviceSet, RobotSet};
 use rri_firmware::tcp::{Framer, Stall, StallGuard};
 use std::io::{self, ErrorKind, Read, Write};
@@ -11,8 +11,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Sender;
 use std::time::Duration;
 
-pub(super) fn serve<R: RobotSet, D: DeviceSet, const RX: usize>(
-    sensor: &mut Sensor<'_, '_, R, D>,
+pub(super) fn serve<R: RobotSet, D: DeviceSet, A: Application<R, D>, const RX: usize>(
+    sensor: &mut Node<'_, R, D, A>,
     opts: &SensorOptions,
     stop: &AtomicBool,
     ready: Option<Sender<SocketAddr>>,
@@ -52,7 +52,7 @@ pub(super) fn serve<R: RobotSet, D: DeviceSet, const RX: usize>(
                 let _ = writeln!(sensor.log, "connection from {peer}");
                 sensor.engine.listening();
                 sensor.note_state();
-                connection::<R, D, RX>(sensor, &listener, &mut waiting, stream, peer, stop);
+                connection::<R, D, A, RX>(sensor, &listener, &mut waiting, stream, peer, stop);
                 sensor.engine.peer_closed();
                 sensor.note_state();
             }
@@ -78,15 +78,15 @@ pub(super) enum End {
 /// One TCP connection: framed messages in (M10), replies out, until the
 /// peer closes, a framing error, a failed send, a stall (M10), or stop.
 /// Whatever happens on the connection ends at most the connection.
-pub(super) fn connection<R: RobotSet, D: DeviceSet, const RX: usize>(
-    sensor: &mut Sensor<'_, '_, R, D>,
+pub(super) fn connection<R: RobotSet, D: DeviceSet, A: Application<R, D>, const RX: usize>(
+    sensor: &mut Node<'_, R, D, A>,
     listener: &TcpListener,
     waiting: &mut Option<(TcpStream, SocketAddr)>,
     stream: TcpStream,
     peer: SocketAddr,
     stop: &AtomicBool,
 ) {
-    let end = serve_connection::<R, D, RX>(sensor, listener, waiting, stream, peer, stop);
+    let end = serve_connection::<R, D, A, RX>(sensor, listener, waiting, stream, peer, stop);
     let why = match end {
         End::Stop | End::PeerClosed => return,
         End::Framing => format!("framing error: message longer than {RX} bytes"),
@@ -104,8 +104,8 @@ pub(super) fn connection<R: RobotSet, D: DeviceSet, const RX: usize>(
     let _ = writeln!(sensor.log, "closing the connection from {peer}: {why}");
 }
 
-pub(super) fn serve_connection<R: RobotSet, D: DeviceSet, const RX: usize>(
-    sensor: &mut Sensor<'_, '_, R, D>,
+pub(super) fn serve_connection<R: RobotSet, D: DeviceSet, A: Application<R, D>, const RX: usize>(
+    sensor: &mut Node<'_, R, D, A>,
     listener: &TcpListener,
     waiting: &mut Option<(TcpStream, SocketAddr)>,
     mut stream: TcpStream,

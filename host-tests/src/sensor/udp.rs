@@ -1,8 +1,8 @@
 //! The host sensor over UDP: one socket, every datagram through the
 //! engine, every reply sent back to where the engine says.
 
-use super::{endpoint, Sensor, SensorOptions};
-use rri_firmware::engine::{Clock, Endpoint};
+use super::{endpoint, Node, SensorOptions};
+use rri_firmware::engine::{Application, Clock, Endpoint};
 use rri_firmware::properties::{DeviceSet, RobotSet};
 use std::io::{self, ErrorKind};
 use std::net::{SocketAddr, UdpSocket};
@@ -10,8 +10,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Sender;
 use std::time::Duration;
 
-pub(super) fn serve<R: RobotSet, D: DeviceSet>(
-    sensor: &mut Sensor<'_, '_, R, D>,
+pub(super) fn serve<R: RobotSet, D: DeviceSet, A: Application<R, D>>(
+    sensor: &mut Node<'_, R, D, A>,
     opts: &SensorOptions,
     stop: &AtomicBool,
     ready: Option<Sender<SocketAddr>>,
@@ -60,8 +60,8 @@ pub(super) fn serve<R: RobotSet, D: DeviceSet>(
 
 /// Sends the reply in `sensor.out`; a failure is counted and logged, never
 /// fatal (a controller that went away, a full socket buffer).
-pub(super) fn send<R: RobotSet, D: DeviceSet>(
-    sensor: &mut Sensor<'_, '_, R, D>,
+pub(super) fn send<R: RobotSet, D: DeviceSet, A: Application<R, D>>(
+    sensor: &mut Node<'_, R, D, A>,
     socket: &UdpSocket,
     to: Endpoint,
     len: usize,
