@@ -24,6 +24,8 @@ use hal_board::board;
 use rri_firmware::codec::DecodeErrorKind;
 use rri_firmware::demo::{simulated_distance, DemoApp};
 use rri_firmware::engine::{Clock, Engine, Outcome, SensorState};
+use rri_firmware::fragments::guard::FragmentGuard;
+use rri_firmware::fragments::{self, Channel, Link, Reassembler};
 use rri_firmware::layout::{self, DeviceEngine, DeviceProperties, RobotProperties};
 use rri_firmware::net::{self, EmbassyClock, Monitor};
 use rri_firmware::network;
@@ -48,10 +50,22 @@ const TCP_SOCKET: usize = if layout::MAX_RECEIVE_LEN > layout::MAX_SEND_LEN {
 /// The watchdog resets the board when the cycle stops turning this long.
 const WATCHDOG_MS: u32 = 2_000;
 
+/// The board's driver as the stack sees it: behind the fragment guard
+/// (S5: robot messages longer than a frame are reassembled there, under
+/// rules no other sender can use to lock the controller out) and, in bench
+/// builds, the bench's tap next to the driver (its "frame in" is the
+/// driver's, before the guard).
 #[cfg(feature = "bench")]
-type Nic = rri_firmware::bench::Tap<board::Net>;
+type Nic = FragmentGuard<'static, rri_firmware::bench::Tap<board::Net>, REASSEMBLY_BUF>;
 #[cfg(not(feature = "bench"))]
-type Nic = board::Net;
+type Nic = FragmentGuard<'static, board::Net, REASSEMBLY_BUF>;
+
+/// One reassembly buffer: the layout's longest robot message with its
+/// headers.
+const REASSEMBLY_BUF: usize = fragments::buffer_len(layout::MAX_RECEIVE_LEN);
+/// Shared by the fragment guard and the cycle: who the controller is, and
+/// the guard's counters.
+static LINK: Link = Link::new();
 
 static SAMPLES: SampleCell<1> = SampleCell::new();
 static PUBLISHED: Published = Published::new();
@@ -107,6 +121,18 @@ fn main() -> ! {
     let nic = rri_firmware::bench::Tap::new(b.net, board::cycle_counter);
     #[cfg(not(feature = "bench"))]
     let nic = b.net;
+    // The reassembly buffers are the stack's largest: in place, in `.bss`.
+    static REASSEMBLY: ConstStaticCell<Reassembler<REASSEMBLY_BUF>> =
+        ConstStaticCell::new(Reassembler::new());
+    let nic = FragmentGuard::new(
+        nic,
+        REASSEMBLY.take(),
+        &LINK,
+        Channel {
+            device: ADDRESS,
+            port: layout::CHANNEL_PORT,
+        },
+    );
     let urgent: SendSpawner = board::start_urgent_executor();
     spawn!(urgent, network(nic, b.seed, reader));
 
@@ -169,6 +195,7 @@ async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, 1>) -> ! {
             app: &mut app,
             clock: &EmbassyClock,
             monitor: &mut monitor,
+            link: &LINK,
         }
         .tcp(buffers)
         .await
@@ -184,6 +211,7 @@ async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, 1>) -> ! {
             app: &mut app,
             clock: &EmbassyClock,
             monitor: &mut monitor,
+            link: &LINK,
         }
         .udp(buffers)
         .await
@@ -324,10 +352,19 @@ fn state_led(state: SensorState, tick: u32) -> bool {
     }
 }
 
+/// The counter line, once a second (host tools parse it:
+/// `host-tests/src/counters.rs`): the engine's counters, the fragment
+/// guard's (S5) and the network chip's own receive counters where the
+/// board reads them (`nic n/a` where it does not).
 fn log_counters(s: &Snapshot) {
     let st = &s.stats;
+    let fr = &st.fragments;
+    let (read, nic) = match board::nic_counters() {
+        Some(n) => ("read", n),
+        None => ("n/a", hal_board::NicCounters::default()),
+    };
     defmt::info!(
-        "counters: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {}",
+        "counters: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {} | fragments {} reassembled {} oversize {} unwanted {} malformed {} no-buffer {} timed-out {} evicted {} spoiled {} | controller-in {} controller-timed-out {} controller-dropped {} | nic {=str} rx {} rx-dropped {} status-full {} fifo-max {}",
         st.received,
         st.answered,
         st.dropped_foreign,
@@ -342,6 +379,23 @@ fn log_counters(s: &Snapshot) {
         st.timeouts,
         if st.latency.count > 0 { st.latency.max_us } else { 0 },
         st.latency.total_us.checked_div(u64::from(st.latency.count)).unwrap_or(0),
+        fr.fragments,
+        fr.reassembled,
+        fr.oversize,
+        fr.unwanted,
+        fr.malformed,
+        fr.no_buffer,
+        fr.timed_out,
+        fr.evicted,
+        fr.spoiled,
+        fr.controller_datagrams,
+        fr.controller_timed_out,
+        fr.controller_dropped,
+        read,
+        nic.rx_frames,
+        nic.rx_dropped,
+        nic.status_full,
+        nic.fifo_max,
     );
 }
 
