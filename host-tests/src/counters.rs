@@ -35,8 +35,9 @@ pub struct Fragments {
     pub spoiled: u64,
     /// The controller's datagrams handed to the stack whole.
     pub controller_in: u64,
-    /// The controller's sets given up incomplete (a fragment never came).
-    pub controller_timed_out: u64,
+    /// The controller's sets given up incomplete (timed out or superseded:
+    /// a fragment never came).
+    pub controller_incomplete: u64,
     /// The controller's sets lost in reassembly itself.
     pub controller_dropped: u64,
 }
@@ -87,7 +88,7 @@ impl DeviceCounters {
                 evicted: after("evicted")?,
                 spoiled: after("spoiled")?,
                 controller_in: after("controller-in")?,
-                controller_timed_out: after("controller-timed-out")?,
+                controller_incomplete: after("controller-incomplete")?,
                 controller_dropped: after("controller-dropped")?,
             },
             nic,
@@ -132,8 +133,8 @@ pub struct LossSplit {
     /// Never reached the firmware whole: sent − reached the stack −
     /// dropped in reassembly.
     pub nic: u64,
-    /// The controller's sets the fragment guard dropped (evicted, spoiled,
-    /// refused).
+    /// The controller's sets the fragment guard dropped (spoiled or
+    /// refused a buffer).
     pub reassembly: u64,
     /// Reached the stack whole, not answered: the socket's queue or the
     /// engine.
@@ -187,7 +188,7 @@ impl LossSplit {
 mod counter_tests {
     use super::*;
 
-    const LINE: &str = "[    3.0 INFO ] counters: received 11 answered 6 dropped foreign 1 invalid-source 1 throttled 1 decode 2 | send-errors 0 stalled 0 | lost 0 dup 0 reordered 0 timeouts 0 | latency us max 900 mean 500 | fragments 30 reassembled 8 oversize 10 unwanted 1 malformed 2 no-buffer 3 timed-out 4 evicted 5 spoiled 2 | controller-in 9 controller-timed-out 1 controller-dropped 1 | nic read rx 120 rx-dropped 7 status-full 1 fifo-max 4560";
+    const LINE: &str = "[    3.0 INFO ] counters: received 11 answered 6 dropped foreign 1 invalid-source 1 throttled 1 decode 2 | send-errors 0 stalled 0 | lost 0 dup 0 reordered 0 timeouts 0 | latency us max 900 mean 500 | fragments 30 reassembled 8 oversize 10 unwanted 1 malformed 2 no-buffer 3 timed-out 4 evicted 5 spoiled 2 | controller-in 9 controller-incomplete 1 controller-dropped 1 | nic read rx 120 rx-dropped 7 status-full 1 fifo-max 4560";
 
     #[test]
     fn counter_line_parses_and_adds_up() {
@@ -213,7 +214,7 @@ mod counter_tests {
         assert_eq!(
             (
                 f.controller_in,
-                f.controller_timed_out,
+                f.controller_incomplete,
                 f.controller_dropped
             ),
             (9, 1, 1)

@@ -364,7 +364,7 @@ fn log_counters(s: &Snapshot) {
         None => ("n/a", hal_board::NicCounters::default()),
     };
     defmt::info!(
-        "counters: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {} | fragments {} reassembled {} oversize {} unwanted {} malformed {} no-buffer {} timed-out {} evicted {} spoiled {} | controller-in {} controller-timed-out {} controller-dropped {} | nic {=str} rx {} rx-dropped {} status-full {} fifo-max {}",
+        "counters: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {} | fragments {} reassembled {} oversize {} unwanted {} malformed {} no-buffer {} timed-out {} evicted {} spoiled {} | controller-in {} controller-incomplete {} controller-dropped {} | nic {=str} rx {} rx-dropped {} status-full {} fifo-max {}",
         st.received,
         st.answered,
         st.dropped_foreign,
@@ -389,7 +389,7 @@ fn log_counters(s: &Snapshot) {
         fr.evicted,
         fr.spoiled,
         fr.controller_datagrams,
-        fr.controller_timed_out,
+        fr.controller_incomplete,
         fr.controller_dropped,
         read,
         nic.rx_frames,

@@ -177,9 +177,12 @@ pub enum SetLoss {
     /// Still incomplete [`TIMEOUT_US`] after its first fragment: a
     /// fragment never came.
     TimedOut,
-    /// Its buffer went to a set that ranks higher (or to the
-    /// controller's newer set).
+    /// Its buffer went to a set that ranks higher.
     Evicted,
+    /// The controller's set, its buffer taken by the controller's newer
+    /// set while both buffers held the controller's: a fragment of it had
+    /// not come while the controller sent two more messages.
+    Superseded,
     /// A later fragment showed it unusable (oversize, unwanted, malformed).
     Spoiled,
 }
@@ -203,15 +206,18 @@ pub struct FragmentStats {
     pub no_buffer: u32,
     /// Sets given up: [`SetLoss::TimedOut`].
     pub timed_out: u32,
-    /// Sets given up: [`SetLoss::Evicted`].
+    /// Sets given up: [`SetLoss::Evicted`] and [`SetLoss::Superseded`].
     pub evicted: u32,
     /// Sets given up: [`SetLoss::Spoiled`].
     pub spoiled: u32,
-    /// Of the sets timed out, the controller's ([`Rank::Controller`]): a
-    /// fragment of a robot message never reached the device.
-    pub controller_timed_out: u32,
-    /// The controller's sets lost in reassembly itself: evicted, spoiled
-    /// or refused a buffer.
+    /// The controller's sets ([`Rank::Controller`]) given up incomplete,
+    /// timed out or superseded: a fragment of a robot message never
+    /// reached the device (in time).
+    pub controller_incomplete: u32,
+    /// The controller's robot messages lost in reassembly itself: a set
+    /// spoiled by a malformed or overlapping fragment, or refused a buffer
+    /// (never evicted: nothing ranks above them; a set shown oversize or
+    /// for another port was no robot message and is not counted here).
     pub controller_dropped: u32,
     /// The controller's datagrams to the channel port handed to the stack
     /// whole, in one frame or reassembled: the robot messages that reached
@@ -231,7 +237,7 @@ impl FragmentStats {
         timed_out: 0,
         evicted: 0,
         spoiled: 0,
-        controller_timed_out: 0,
+        controller_incomplete: 0,
         controller_dropped: 0,
         controller_datagrams: 0,
     };
@@ -264,13 +270,13 @@ impl FragmentStats {
     fn count_loss(&mut self, reason: SetLoss, rank: Rank) {
         let c = match reason {
             SetLoss::TimedOut => &mut self.timed_out,
-            SetLoss::Evicted => &mut self.evicted,
+            SetLoss::Evicted | SetLoss::Superseded => &mut self.evicted,
             SetLoss::Spoiled => &mut self.spoiled,
         };
         *c = c.saturating_add(1);
         if rank == Rank::Controller {
             let c = match reason {
-                SetLoss::TimedOut => &mut self.controller_timed_out,
+                SetLoss::TimedOut | SetLoss::Superseded => &mut self.controller_incomplete,
                 SetLoss::Evicted | SetLoss::Spoiled => &mut self.controller_dropped,
             };
             *c = c.saturating_add(1);

@@ -342,6 +342,12 @@ impl<const BUF: usize> Reassembler<BUF> {
 
     fn drop_fragment(&mut self, reason: FragmentDrop, spoils: Option<usize>) -> Verdict {
         if let Some(slot) = spoils {
+            // A set shown to be oversize or for another port was never a
+            // robot message: given up, not the controller's loss.
+            let robot_message = matches!(reason, FragmentDrop::Malformed);
+            if let (false, Some(s)) = (robot_message, self.slots.get_mut(slot)) {
+                s.rank = s.rank.min(Rank::Likely);
+            }
             self.lose(slot, SetLoss::Spoiled);
         }
         self.stats.count_drop(reason);
@@ -378,12 +384,12 @@ impl<const BUF: usize> Reassembler<BUF> {
                 .min_by_key(|(_, s)| (s.rank, s.started_us))
                 .map(|(i, _)| i)
         };
-        let victim = match oldest(true) {
-            Some(v) => v,
-            None if rank == Rank::Controller => oldest(false)?,
+        let (victim, reason) = match oldest(true) {
+            Some(v) => (v, SetLoss::Evicted),
+            None if rank == Rank::Controller => (oldest(false)?, SetLoss::Superseded),
             None => return None,
         };
-        self.lose(victim, SetLoss::Evicted);
+        self.lose(victim, reason);
         Some(victim)
     }
 

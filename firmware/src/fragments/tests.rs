@@ -158,6 +158,12 @@ fn pass_hands_the_stack_the_frame_the_datagram_or_nothing() {
 #[test]
 fn an_oversize_set_is_dropped_at_its_first_fragment_past_the_limit() {
     let mut r = R::new();
+    // Before any peer anyone may be the controller, and an oversize set
+    // of theirs is no robot message: given up, not the controller's loss.
+    let mut r0 = R::new();
+    let frags = cut(ROBOT, 9, &udp(ROBOT_PORT, PORT, 9000), 1480);
+    feed(&mut r0, &frags, 0, Controller::ANYONE);
+    assert_eq!((r0.stats().spoiled, r0.stats().controller_dropped), (1, 0));
     // Two 9,000-byte datagrams (the attack), in order: the first
     // two fragments of each fit and are held, the third goes past the
     // layout's 3,565 bytes and frees the buffer, the rest never take one.
@@ -277,7 +283,7 @@ fn an_incomplete_set_is_given_up_after_the_timeout() {
     assert_eq!(r.held(), 0);
     let s = r.stats();
     assert_eq!(
-        (s.timed_out, s.controller_timed_out, s.controller_dropped),
+        (s.timed_out, s.controller_incomplete, s.controller_dropped),
         (1, 1, 0)
     );
     // Its straggler comes later: a new set, held until its own timeout.
@@ -293,7 +299,7 @@ fn an_incomplete_set_is_given_up_after_the_timeout() {
     );
     r.expire(40_000);
     assert_eq!(
-        (r.stats().timed_out, r.stats().controller_timed_out),
+        (r.stats().timed_out, r.stats().controller_incomplete),
         (3, 1)
     );
 }
@@ -330,7 +336,11 @@ fn the_controller_wins_a_buffer_over_strangers_and_over_its_own_older_set() {
         Verdict::Dropped(FragmentDrop::NoBuffer)
     );
     assert_eq!(r.accept(&robot(8)[0], 70, CHANNEL, PEER), Verdict::Held);
-    assert_eq!((r.stats().evicted, r.stats().controller_dropped), (4, 1));
+    let s = r.stats();
+    assert_eq!(
+        (s.evicted, s.controller_incomplete, s.controller_dropped),
+        (4, 1, 0)
+    );
     // And both of its newest sets still complete.
     let got = feed(
         &mut r,
@@ -383,7 +393,11 @@ fn strangers_interleaved_with_the_controller_never_cost_it_a_message() {
         let mut robot = cut(ROBOT, n, &datagram, 1480).into_iter();
         let mut attack: Vec<Vec<u8>> = Vec::new();
         for k in 0..(next() % 6) {
-            let who = if next().is_multiple_of(2) { STRANGER } else { ROBOT };
+            let who = if next().is_multiple_of(2) {
+                STRANGER
+            } else {
+                ROBOT
+            };
             let sport = if who == ROBOT { ROBOT_PORT + 1 } else { 40000 };
             let ident = 10_000 + n * 8 + k as u16;
             let frags = cut(who, ident, &udp(sport, PORT, 9000), 1480);
@@ -411,7 +425,7 @@ fn strangers_interleaved_with_the_controller_never_cost_it_a_message() {
         (
             s.controller_datagrams,
             s.controller_dropped,
-            s.controller_timed_out
+            s.controller_incomplete
         ),
         (500, 0, 0)
     );
@@ -424,8 +438,13 @@ fn counters_saturate_and_stats_add_up() {
     s.no_buffer = u32::MAX;
     s.count_drop(FragmentDrop::NoBuffer);
     assert_eq!(s.no_buffer, u32::MAX);
-    s.count_loss(SetLoss::Evicted, Rank::Controller);
-    assert_eq!((s.evicted, s.controller_dropped, s.sets_lost()), (1, 1, 1));
+    s.count_loss(SetLoss::Superseded, Rank::Controller);
+    assert_eq!(
+        (s.evicted, s.controller_incomplete, s.sets_lost()),
+        (1, 1, 1)
+    );
+    s.count_loss(SetLoss::Spoiled, Rank::Controller);
+    assert_eq!((s.spoiled, s.controller_dropped, s.sets_lost()), (1, 1, 2));
     assert_eq!(
         FragmentDrop::Oversize.to_string(),
         "fragment past what the layout accepts (S5)"

@@ -5,6 +5,8 @@
 //! drives it with the robot-controller simulator (2,500 cycles at 4 ms: 10 s
 //! of robot time) while showing the device's own log, and exits 0 only when
 //! every reply was right and on time and the firmware is still running.
+//! `--oversize-attack` sends the attack of S5's issue first (two 9,000-byte
+//! datagrams) and then requires every robot message answered.
 //!
 //! The warm-up: QEMU translates the firmware's machine code to the host's
 //! the first time it runs, so the first messages take tens of milliseconds
@@ -45,6 +47,13 @@ struct Args {
     /// Write the simulator's latency plot (.svg or .png) here.
     #[arg(long, value_parser = plot_path)]
     plot: Option<PathBuf>,
+    /// S5: after the warm-up, send the attack of "Fragments never lock the
+    /// controller out" (two 9,000-byte datagrams from a second port of the
+    /// controller's address), then fail unless every robot message of the
+    /// counted run is answered (build with a configuration whose robot
+    /// messages are fragmented: host-tests/gsi/fragmented).
+    #[arg(long)]
+    oversize_attack: bool,
     #[command(flatten)]
     properties: Properties,
 }
@@ -147,6 +156,20 @@ fn demo(args: &Args) -> Result<(), Failure> {
     if args.warm_up > 0 {
         opts.first_id = warm_up(&opts, &device, args.warm_up)?;
     }
+    if args.oversize_attack {
+        // Through QEMU's user networking every host sender shows as one
+        // address: another port of it is another port of the controller's.
+        let attacker = std::net::UdpSocket::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
+        for _ in 0..2 {
+            attacker
+                .send_to(&[b'<'; 9000], ("127.0.0.1", host_port))
+                .map_err(|e| e.to_string())?;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+        println!(
+            "== S5: two 9,000-byte datagrams sent from another port of the controller's address (smoltcp alone then dropped every fragmented robot message for 60 s)"
+        );
+    }
     match args.properties.send.as_slice() {
         [] => println!("== robot simulator: {} cycles every 4 ms", args.cycles),
         sends => println!(
@@ -176,6 +199,26 @@ fn demo(args: &Args) -> Result<(), Failure> {
     }
     if let Some(panic) = log.iter().find(|l| l.contains("panic")) {
         return Err(format!("the firmware panicked: {panic}").into());
+    }
+    if args.oversize_attack {
+        let counters = log
+            .iter()
+            .rev()
+            .find_map(|l| host_tests::counters::DeviceCounters::parse(l));
+        if let Some(c) = counters {
+            let f = c.fragments;
+            println!(
+                "device fragments: {} in, {} reassembled, {} oversize dropped, {} sets spoiled",
+                f.fragments, f.reassembled, f.oversize, f.spoiled
+            );
+        }
+        if summary.lost > 0 {
+            return Err(format!(
+                "S5: {} of {} fragmented robot messages not answered after two 9,000-byte datagrams",
+                summary.lost, summary.sent
+            )
+            .into());
+        }
     }
     match summary.failure() {
         None => {
