@@ -290,7 +290,8 @@ fn a_burst_of_flood_datagrams_never_crowds_the_robots_message_out_of_the_socket(
         // address reach the driver at once, then the robot's message. Taken
         // in one poll they would fill the socket's queue (4 × 3,557 bytes)
         // before the cycle could empty it, and the robot's message would be
-        // dropped there; the guard hands the stack three frames a poll.
+        // dropped there; the guard ends a poll after each datagram for the
+        // channel port, so the cycle empties the queue in between.
         let junk = vec![b'#'; 1400];
         push(
             to,

@@ -7,15 +7,18 @@
 //! the stack as an empty frame, which smoltcp skips. Sending is the
 //! driver's own.
 //!
-//! It also hands the stack at most [`FRAMES_PER_POLL`] frames per poll of
-//! the network runner. smoltcp takes frames until the driver has none
-//! left, so under a flood the runner kept the cycle task (on the same
-//! executor) from running while the UDP socket's queue filled with flood
-//! datagrams and overflowed: robot messages that had reached the device
-//! whole were lost there (723 of the 1,178 lost in a `cargo flood` run at
-//! ten times the cycle rate). After the budget the guard says "nothing
-//! now" and wakes the runner again: the executor polls the cycle, which
-//! empties the queue, before the runner's next turn.
+//! It also ends a poll of the network runner after each datagram for the
+//! channel port it hands on (and after [`FRAMES_PER_POLL`] frames).
+//! smoltcp takes frames until the driver has none left, so under a flood
+//! the runner kept the cycle task (on the same executor) from running
+//! while the UDP socket's queue filled with flood datagrams and
+//! overflowed: robot messages that had reached the device whole were lost
+//! there (723 of the 1,178 lost in a `cargo flood` run at ten times the
+//! cycle rate). After such a datagram the guard says "nothing now" and
+//! wakes the runner again: the executor polls the cycle, which empties
+//! the queue, before the runner's next turn, so the queue never holds more
+//! than two datagrams for the channel (it has room for `net::QUEUE` of the
+//! longest).
 
 use super::{Channel, Link, Reassembler};
 use core::task::Context;
@@ -25,11 +28,17 @@ fn now_us() -> u64 {
     embassy_time::Instant::now().as_micros()
 }
 
-/// Frames handed to the stack per poll of the network runner: the socket
-/// queue then never holds more than two polls' worth of frames between
-/// two turns of the cycle (`net::QUEUE` whole robot messages of the
-/// manual's layout are 14,228 bytes; six frames are at most 8,880).
-pub const FRAMES_PER_POLL: usize = 3;
+/// Frames handed to the stack per poll of the network runner at most (a
+/// poll also ends after a datagram for the channel port): bounds how long
+/// a flood of other frames keeps the cycle waiting.
+pub const FRAMES_PER_POLL: usize = 16;
+
+/// What this poll of the runner has had.
+#[derive(Clone, Copy, Default)]
+struct Budget {
+    frames: usize,
+    to_channel: bool,
+}
 
 /// The driver `D` with IPv4 reassembly under S5 in front of it, buffers
 /// of `BUF` bytes ([`super::buffer_len`] of the layout's
@@ -39,8 +48,7 @@ pub struct FragmentGuard<'d, D, const BUF: usize> {
     reassembler: &'d mut Reassembler<BUF>,
     link: &'d Link,
     channel: Channel,
-    /// Frames handed over in this poll of the runner.
-    taken: usize,
+    budget: Budget,
 }
 
 impl<'d, D, const BUF: usize> FragmentGuard<'d, D, BUF> {
@@ -59,7 +67,7 @@ impl<'d, D, const BUF: usize> FragmentGuard<'d, D, BUF> {
             reassembler,
             link,
             channel,
-            taken: 0,
+            budget: Budget::default(),
         }
     }
 }
@@ -71,6 +79,7 @@ pub struct GuardRx<'a, T, const BUF: usize> {
     reassembler: &'a mut Reassembler<BUF>,
     link: &'a Link,
     channel: Channel,
+    budget: &'a mut Budget,
 }
 
 impl<T: embassy_net_driver::RxToken, const BUF: usize> embassy_net_driver::RxToken
@@ -82,12 +91,15 @@ impl<T: embassy_net_driver::RxToken, const BUF: usize> embassy_net_driver::RxTok
             reassembler,
             link,
             channel,
+            budget,
         } = self;
         let controller = link.controller();
         let r = inner.consume(|frame| reassembler.pass(frame, now_us(), channel, controller, f));
         if reassembler.take_changed() {
             link.publish(reassembler.stats());
         }
+        budget.frames += 1;
+        budget.to_channel |= reassembler.to_channel();
         r
     }
 }
@@ -108,7 +120,7 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
             reassembler,
             link,
             channel,
-            taken,
+            budget,
         } = self;
         // Stale sets go at every poll, not only when the next fragment
         // comes, so the counters show them.
@@ -116,23 +128,23 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
         if reassembler.take_changed() {
             link.publish(reassembler.stats());
         }
-        if *taken >= FRAMES_PER_POLL {
+        if budget.to_channel || budget.frames >= FRAMES_PER_POLL {
             // This poll had its share: let the cycle run, then come back.
-            *taken = 0;
+            *budget = Budget::default();
             cx.waker().wake_by_ref();
             return None;
         }
         let Some((rx, tx)) = inner.receive(cx) else {
-            *taken = 0;
+            *budget = Budget::default();
             return None;
         };
-        *taken += 1;
         Some((
             GuardRx {
                 inner: rx,
                 reassembler,
                 link,
                 channel: *channel,
+                budget,
             },
             tx,
         ))

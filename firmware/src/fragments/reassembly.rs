@@ -284,6 +284,8 @@ pub struct Reassembler<const BUF: usize> {
     slots: [Slot<BUF>; SLOTS],
     stats: FragmentStats,
     changed: bool,
+    /// The last frame handed on was a UDP datagram to the channel port.
+    to_channel: bool,
 }
 
 impl<const BUF: usize> Default for Reassembler<BUF> {
@@ -311,6 +313,7 @@ impl<const BUF: usize> Reassembler<BUF> {
             slots: [const { Slot::FREE }; SLOTS],
             stats: FragmentStats::ZERO,
             changed: false,
+            to_channel: false,
         }
     }
 
@@ -323,6 +326,13 @@ impl<const BUF: usize> Reassembler<BUF> {
     /// publishes them only then).
     pub fn take_changed(&mut self) -> bool {
         core::mem::take(&mut self.changed)
+    }
+
+    /// Whether the last frame [`Reassembler::accept`] took handed the
+    /// stack a UDP datagram for the channel port (whole or reassembled):
+    /// one the cycle will have to take from its socket.
+    pub fn to_channel(&self) -> bool {
+        self.to_channel
     }
 
     /// Sets holding a buffer now.
@@ -405,10 +415,12 @@ impl<const BUF: usize> Reassembler<BUF> {
         channel: Channel,
         controller: Controller,
     ) -> Verdict {
+        self.to_channel = false;
         let f = match classify(frame) {
             Frame::Whole => {
                 if let Some((src, sport, dport)) = udp_ports(frame, channel.device) {
-                    if dport == channel.port && controller.sent(src, sport) {
+                    self.to_channel = dport == channel.port;
+                    if self.to_channel && controller.sent(src, sport) {
                         self.stats.controller_datagrams =
                             self.stats.controller_datagrams.saturating_add(1);
                         self.changed = true;
@@ -491,6 +503,7 @@ impl<const BUF: usize> Reassembler<BUF> {
         s.busy = false;
         let rank = s.rank;
         self.stats.reassembled = self.stats.reassembled.saturating_add(1);
+        self.to_channel = true;
         if rank == Rank::Controller {
             self.stats.controller_datagrams = self.stats.controller_datagrams.saturating_add(1);
         }
