@@ -8,8 +8,8 @@
 //! its own map therefore gets a complete script: its `MEMORY` block
 //! (`memory/<board>.x`) followed by cortex-m-rt's own `link.x.in` without
 //! the `INCLUDE memory.x` line. The F767 (and a build with no board) uses
-//! cortex-m-rt's `link.x` as it is. `host-tests/tests/board_elf.rs` checks
-//! the result in the ELF's section addresses.
+//! cortex-m-rt's `link.x` as it is. `cargo boards` checks the result in
+//! each board's ELF (`host-tests/src/boards.rs`, `board_map.rs`).
 
 use std::path::{Path, PathBuf};
 

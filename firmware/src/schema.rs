@@ -152,4 +152,14 @@ pub trait MessageCodec: Message {
     fn field(data: &Self::Data, index: usize) -> Option<FieldRef<'_>>;
     /// [`Record::field_mut`] of `data`, or the value itself at index 0.
     fn field_mut(data: &mut Self::Data, index: usize) -> Option<FieldMut<'_>>;
+
+    /// The compiled decode path of this message ([`crate::codec::compiled`],
+    /// generated for every property the controller sends): `Some` with
+    /// exactly what the general decoder would report for `bytes`, or
+    /// `None` to leave them to it. `None` for every other message.
+    #[inline(always)]
+    fn decode_compiled(bytes: &[u8], data: &mut Self::Data) -> Option<crate::codec::Decoded> {
+        let _ = (bytes, data);
+        None
+    }
 }

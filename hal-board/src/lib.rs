@@ -13,12 +13,16 @@
 //! `Watchdog`, `start_urgent_executor()`, `run_background()`, `cycle_counter()`,
 //! `nic_counters()`, `exit()`.
 //! Chip-only dependencies are gated to `target_os = "none"`, so the host
-//! build (`cargo test`) never compiles them; the LAN9118 driver is plain
-//! logic over a register trait and is unit-tested on the host.
+//! build (`cargo test`) never compiles them; the LAN9118 and LAN8742A
+//! drivers are plain logic over a register trait, and the MPU encoding and
+//! the receive ring's size plain arithmetic: all unit-tested on the host.
 #![cfg_attr(not(test), no_std)]
 
+pub mod lan8742;
 pub mod lan9118;
 pub mod mac;
+pub mod mpu;
+pub mod rx_ring;
 
 /// What the network chip itself counted on the receive side, for the
 /// firmware's counter line: frames it lost before the driver could take
@@ -40,6 +44,10 @@ pub struct NicCounters {
 /// Stack painting and its high-water mark (every board).
 #[cfg(all(any(feature = "mps2-an500", feature = "stm32"), target_os = "none"))]
 pub mod stack;
+
+/// The HardFault handler (every board).
+#[cfg(all(any(feature = "mps2-an500", feature = "stm32"), target_os = "none"))]
+pub mod fault;
 
 #[cfg(all(feature = "mps2-an500", target_os = "none"))]
 pub mod mps2_an500;

@@ -13,8 +13,9 @@
 //! - LEDs: the FPGA's two user LEDs; no ADC is modelled, so the sample
 //!   source has nothing and the firmware simulates its readings;
 //! - watchdog: the CMSDK watchdog (NMI, then reset);
-//! - defmt over semihosting (QEMU's stdout), semihosting exit codes, and a
-//!   panic handler that logs and exits with status 101.
+//! - defmt over semihosting (QEMU's stdout), semihosting exit codes, a
+//!   panic handler that logs and exits with status 101, and the HardFault
+//!   handler every board has ([`crate::fault`]: log, then reset).
 //!
 //! Interrupt priorities (lower is more urgent): SysTick 0 (it must never be
 //! starved for a whole period: the 64-bit time depends on it), NIC 0x40,
@@ -125,6 +126,9 @@ pub fn init() -> Result<Board, InitError> {
     NVIC::unpend(LAN9118_IRQ);
     // SAFETY: the handler (below) is ready and the NIC's line is active-high.
     unsafe { NVIC::unmask(LAN9118_IRQ) };
+    if cfg!(feature = "fault-selftest") {
+        crate::fault::selftest();
+    }
     Ok(Board {
         net,
         leds: Leds { bits: 0 },
@@ -329,6 +333,13 @@ impl Watchdog {
 /// Ends the QEMU run with `code` (semihosting `SYS_EXIT_EXTENDED`).
 pub fn exit(code: i32) -> ! {
     semihosting::process::exit(code)
+}
+
+/// After a fault ([`crate::fault`]): a system reset, as on the NUCLEO
+/// boards. QEMU restarts the firmware from its image (or exits, with
+/// `-no-reboot`); semihosting has already written the log.
+pub(crate) fn reset() -> ! {
+    cortex_m::peripheral::SCB::sys_reset()
 }
 
 #[panic_handler]

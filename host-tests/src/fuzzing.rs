@@ -11,6 +11,7 @@
 //! | `tcp_framer` | M10's stream splitter | any chunking gives the same messages; each is a piece of the stream ending in `>`, within the buffer |
 //! | `cycle` | datagrams and clock steps through the engine | S-rules: a reply's Id is the request's (M8), replies go only to valid, admitted sources (peer rule), counters add up |
 //! | `gsi` | Settings/Description/Configuration parsing and code generation | no panic; every diagnostic points inside its file |
+//! | `decode_paths` | every property the controller sends, of four layouts, through the compiled and the general decode path | where the compiled path takes a datagram, the general path accepts it with the same header, tally and record; `decode` answers as the general path ([`crate::differential`]) |
 
 use crate::layouts::{anydevice as manual, every_type as et};
 use rri_firmware::codec::{decode, encode, Tally};
@@ -31,6 +32,7 @@ pub const TARGETS: &[(&str, Target)] = &[
     ("tcp_framer", tcp_framer),
     ("cycle", cycle),
     ("gsi", gsi),
+    ("decode_paths", crate::differential::decode_paths),
 ];
 
 /// The manual's layout: RobData as the robot sends it.
@@ -420,6 +422,7 @@ pub fn seeds(target: &str) -> Vec<Vec<u8>> {
     match target {
         "decode_manual" => messages.to_vec(),
         "decode_every_type" => every_type_seeds(),
+        "decode_paths" => crate::differential::seeds(),
         "tcp_framer" => messages
             .iter()
             .map(|m| {

@@ -12,10 +12,15 @@ pub mod layouts {
 }
 
 pub mod attack;
+pub mod board_map;
 pub mod boards;
 pub mod counters;
+pub mod demo;
+pub mod differential;
 pub mod fuzzing;
+pub mod hil;
 pub mod memory_map;
+pub mod probe;
 pub mod qemu;
 pub mod qemu_bench;
 pub mod sensor;

@@ -67,9 +67,24 @@ pub fn ensure_qemu(out: &mut dyn Write) -> Result<(), String> {
 /// `gsi`: the GSI folder to build from (`RRI_GSI_DIR`), `None` for the
 /// caller's environment.
 pub fn build_firmware(extra: &[&str], gsi: Option<&Path>, name: &str) -> Result<PathBuf, String> {
+    build_board(BOARD_FEATURES, extra, gsi, &[], "qemu", name)
+}
+
+/// Builds the firmware for the board `board_features` selects (e.g.
+/// `board,hal-board/nucleo-f767zi`) with `extra` features and `env`,
+/// showing cargo's output, and copies the ELF to `target/<dir>/<name>.elf`.
+/// `gsi` as for [`build_firmware`].
+pub fn build_board(
+    board_features: &str,
+    extra: &[&str],
+    gsi: Option<&Path>,
+    env: &[(&str, &str)],
+    dir: &str,
+    name: &str,
+) -> Result<PathBuf, String> {
     let ws = crate::workspace();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut features = BOARD_FEATURES.to_string();
+    let mut features = board_features.to_string();
     for f in extra {
         features.push(',');
         features.push_str(f);
@@ -78,6 +93,7 @@ pub fn build_firmware(extra: &[&str], gsi: Option<&Path>, name: &str) -> Result<
     if let Some(dir) = gsi {
         cmd.env("RRI_GSI_DIR", dir).env_remove("RRI_DEVICE");
     }
+    cmd.envs(env.iter().copied());
     let status = cmd
         .current_dir(&ws)
         .args([
@@ -95,7 +111,7 @@ pub fn build_firmware(extra: &[&str], gsi: Option<&Path>, name: &str) -> Result<
     if !status.success() {
         return Err(format!("the firmware build failed ({status})"));
     }
-    keep_image("qemu", name)
+    keep_image(dir, name)
 }
 
 /// Copies the firmware image cargo just built to `target/<dir>/<name>.elf`,
@@ -174,7 +190,8 @@ fn slirp_network(boot: &Boot) -> Result<String, String> {
 pub struct Qemu {
     child: Child,
     /// Lines not yet taken by [`Qemu::take_new`] (shared with the robot
-    /// simulator's `device_log`).
+    /// simulator's `device_log`), without the bench records
+    /// ([`crate::demo::shown_live`]).
     pub new_lines: Arc<Mutex<Vec<String>>>,
     all: Arc<Mutex<Vec<String>>>,
     reader: Option<JoinHandle<()>>,
@@ -321,8 +338,10 @@ impl Drop for Qemu {
 /// Decodes the defmt stream into `[time LEVEL] message` lines.
 fn decode(elf: Vec<u8>, mut stdout: impl Read, new: &Mutex<Vec<String>>, all: &Mutex<Vec<String>>) {
     let push = |line: String| {
-        if let Ok(mut n) = new.lock() {
-            n.push(line.clone());
+        if crate::demo::shown_live(&line) {
+            if let Ok(mut n) = new.lock() {
+                n.push(line.clone());
+            }
         }
         if let Ok(mut a) = all.lock() {
             a.push(line);

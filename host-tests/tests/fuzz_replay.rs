@@ -84,6 +84,11 @@ fn gsi_corpus() {
     replay("gsi");
 }
 
+#[test]
+fn decode_paths_corpus() {
+    replay("decode_paths");
+}
+
 /// Every target of host-tests/fuzz is replayed here (a new target without
 /// a replay would go unchecked in CI).
 #[test]

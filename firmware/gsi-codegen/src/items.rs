@@ -2,6 +2,7 @@
 //! `Record` with its `Record` impl, and per property a message type with
 //! its `MessageCodec`.
 
+use crate::compiled::emit_decode_compiled;
 use crate::emit::{self, str_lit, Emitter};
 use crate::resolve::Idents;
 use crate::sizes;
@@ -311,6 +312,10 @@ pub(crate) fn emit_message(
             e.line(format!("(index == 0).then_some({value})"));
             e.close("");
         }
+    }
+    if p.direction.robot_sends() {
+        e.blank();
+        emit_decode_compiled(e, d, id, p);
     }
     e.close("");
 }

@@ -10,6 +10,7 @@
 //! item is documented with what the configuration said, and a golden test in
 //! `host-tests` shows reviewers every change to it.
 
+mod compiled;
 mod emit;
 mod items;
 pub mod names;
@@ -164,6 +165,14 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
     }
     if has_tx {
         codec.push("Encoded");
+    }
+    // (rustfmt puts `codec::compiled::…` before `codec::{…}`.)
+    if has_rx {
+        if compiled::names_module(device, &id) {
+            e.use_list(&format!("{k}::codec::compiled"), &["self", "Scan"]);
+        } else {
+            e.line(format!("use {k}::codec::compiled::Scan;"));
+        }
     }
     e.use_list(&format!("{k}::codec"), &codec);
     e.use_list(

@@ -16,6 +16,9 @@
 //! [`Snapshot`] after each turn and they read the latest one.
 #![no_std]
 #![no_main]
+// The bench's floor build (feature `bench-floor`) answers without the
+// engine, so the cycle's items go unused there.
+#![cfg_attr(feature = "bench-floor", allow(dead_code, unused_imports))]
 
 use embassy_executor::{SendSpawner, Spawner};
 use embassy_net::{Ipv4Address, Ipv4Cidr, Runner, Stack, StackResources, StaticConfigV4};
@@ -186,6 +189,7 @@ async fn net_runner(mut runner: Runner<'static, Nic>) -> ! {
 
 /// The cycle: the engine and the demo application over the configured
 /// channel (UDP or TCP).
+#[cfg(not(feature = "bench-floor"))]
 #[embassy_executor::task]
 async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, 1>) -> ! {
     static ENGINE: StaticCell<DeviceEngine> = StaticCell::new();
@@ -229,6 +233,63 @@ async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, 1>) -> ! {
         }
         .udp(buffers)
         .await
+    }
+}
+
+/// The bench's floor (feature `bench-floor`, measured by `cargo
+/// qemu-bench`): every datagram on the channel port answered with one fixed
+/// reply (the reply property's defaults, encoded once), with no decoding
+/// and no engine: what the driver, smoltcp and the executor cost on their
+/// own, recorded like a cycle (frame in → reply frame out). UDP only.
+#[cfg(feature = "bench-floor")]
+#[embassy_executor::task]
+async fn cycle(stack: Stack<'static>, _reader: SampleReader<'static, 1>) -> ! {
+    use embassy_futures::select::{select, Either};
+    use embassy_net::udp::{PacketMetadata, UdpSocket};
+    use embassy_time::Timer;
+    use rri_firmware::properties::DeviceSet;
+    const RX: usize = layout::MAX_RECEIVE_LEN;
+    const TX: usize = layout::MAX_SEND_LEN;
+    static BYTES: ConstStaticCell<([u8; RX * net::QUEUE], [u8; TX * net::QUEUE], [u8; RX])> =
+        ConstStaticCell::new(([0; RX * net::QUEUE], [0; TX * net::QUEUE], [0; RX]));
+    let (rx, tx, datagram) = BYTES.take();
+    let mut reply = [0u8; TX];
+    let device = DeviceProperties::default();
+    let Ok(fixed) = device.encode(
+        layout::REPLY.index(),
+        0,
+        Default::default(),
+        layout::FORMAT,
+        &mut reply,
+    ) else {
+        defmt::panic!("the fixed reply does not fit MAX_SEND_LEN")
+    };
+    let mut rx_meta = [PacketMetadata::EMPTY; net::QUEUE];
+    let mut tx_meta = [PacketMetadata::EMPTY; net::QUEUE];
+    stack.wait_config_up().await;
+    hal_board::stack::repaint();
+    let mut socket = UdpSocket::new(stack, &mut rx_meta, rx, &mut tx_meta, tx);
+    if socket.bind(layout::CHANNEL_PORT).is_err() {
+        defmt::panic!("the floor cannot bind its port");
+    }
+    // CONNECTED for the host tools, and a heartbeat for the watchdog.
+    let mut turn = Snapshot {
+        state: SensorState::Connected,
+        ..Snapshot::default()
+    };
+    loop {
+        turn.heartbeat = turn.heartbeat.wrapping_add(1);
+        PUBLISHED.publish(&turn);
+        let received = select(socket.recv_from(datagram), Timer::after(net::POLL_INTERVAL)).await;
+        let Either::First(Ok((len, meta))) = received else {
+            continue;
+        };
+        let before = board::cycle_counter();
+        let sent = socket
+            .send_to(reply.get(..fixed.len).unwrap_or(&[]), meta.endpoint)
+            .await;
+        let after = board::cycle_counter();
+        rri_firmware::bench::message(len, sent.ok().map(|()| meta.endpoint.port), (before, after));
     }
 }
 

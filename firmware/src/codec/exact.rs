@@ -45,71 +45,141 @@ struct Cut {
     sticky: bool,
 }
 
-/// Splits a text already known to be a decimal (sign, digits, optional
-/// fraction, optional exponent) into its cut significant digits. One pass.
-fn cut(t: &[u8]) -> Cut {
-    let mut c = Cut {
-        value: Big::from_u64(0),
-        lead: 0,
-        kept: 0,
-        exponent: 0,
-        sticky: false,
-    };
-    // Digits go into `value` nine at a time (one word operation each).
-    let (mut chunk, mut scale) = (0u32, 1u32);
-    let mut fraction = false;
-    let mut rest = t;
-    if let Some((b'+' | b'-', r)) = rest.split_first() {
-        rest = r;
-    }
-    while let Some((&b, r)) = rest.split_first() {
-        let d = b.wrapping_sub(b'0');
-        if d <= 9 {
-            rest = r;
-            if c.kept == 0 && d == 0 {
-                // A leading zero: only its place counts, after the point.
-                c.exponent -= i32::from(fraction);
-            } else if c.kept < KEPT {
-                chunk = chunk * 10 + u32::from(d);
-                scale *= 10;
-                if scale == 1_000_000_000 {
-                    c.value.mul_add(scale, chunk);
-                    (chunk, scale) = (0, 1);
-                }
-                if c.kept < 19 {
-                    c.lead = c.lead * 10 + u64::from(d);
-                }
-                c.kept += 1;
-                c.exponent -= i32::from(fraction);
-            } else {
-                // Cut: before the point it still scales the value.
-                c.sticky |= d != 0;
-                c.exponent += i32::from(!fraction);
-            }
-        } else if b == b'.' {
-            rest = r;
-            fraction = true;
-        } else {
-            break;
+/// A decimal as the scanner in [`super::number`] found it: the digits
+/// before the point and after it (sign and point left out), and the
+/// written exponent.
+#[derive(Clone, Copy, Debug)]
+pub struct Parts<'t> {
+    /// The digits before the point.
+    pub int: &'t [u8],
+    /// The digits after the point.
+    pub fraction: &'t [u8],
+    /// The exponent after `e`/`E` (0 without one).
+    pub exponent: i32,
+}
+
+#[cfg(test)]
+impl<'t> Parts<'t> {
+    /// The parts of a text already known to be a decimal (sign, digits,
+    /// optional fraction, optional exponent): [`parse_magnitude`]'s way in.
+    fn of(t: &'t [u8]) -> Self {
+        let t = match t.split_first() {
+            Some((b'+' | b'-', rest)) => rest,
+            _ => t,
+        };
+        let (int, rest) = split(t, digit_count(t));
+        let (fraction, rest) = match rest.split_first() {
+            Some((b'.', after)) => split(after, digit_count(after)),
+            _ => (&[][..], rest),
+        };
+        Parts {
+            int,
+            fraction,
+            exponent: written_exponent(rest),
         }
     }
-    if scale > 1 {
-        c.value.mul_add(scale, chunk);
+}
+
+/// The cut significant digits of a decimal. The digits go into `value`
+/// nine at a time, each nine one word operation, in a tight loop per run
+/// of digits: a hostile message may hold dozens of 48-character numbers
+/// that all come here.
+fn cut(
+    Parts {
+        int,
+        fraction,
+        exponent,
+    }: Parts<'_>,
+) -> Cut {
+    // Leading zeros count for nothing before the point; after it (when
+    // nothing came before) each moves the point one place.
+    let (_, int) = split(int, zeros(int));
+    let (skipped, fraction) = match int.is_empty() {
+        true => split(fraction, zeros(fraction)),
+        false => (&[][..], fraction),
+    };
+    let kept = (int.len() + fraction.len()).min(KEPT);
+    let (int_kept, int_cut) = split(int, kept);
+    let (fraction_kept, fraction_cut) = split(fraction, kept - int_kept.len());
+    let mut value = Big::from_u64(0);
+    for run in [int_kept, fraction_kept] {
+        for piece in run.chunks(9) {
+            let v = piece
+                .iter()
+                .fold(0u32, |v, &b| v * 10 + u32::from(b.wrapping_sub(b'0')));
+            // `piece.len() <= 9`: always in the table.
+            value.mul_add(POW10_U32.get(piece.len()).copied().unwrap_or(0), v);
+        }
     }
-    if let Some((b'e' | b'E', r)) = rest.split_first() {
-        let (negative, digits) = match r.split_first() {
-            Some((b'-', d)) => (true, d),
-            Some((b'+', d)) => (false, d),
-            _ => (false, r),
-        };
-        // Clamped: anything this large is out of range anyway.
-        let e = digits
-            .iter()
-            .take_while(|b| b.is_ascii_digit())
-            .fold(0i32, |e, &b| (e * 10 + i32::from(b - b'0')).min(100_000));
-        c.exponent = c.exponent.saturating_add(if negative { -e } else { e });
+    let lead = int_kept
+        .iter()
+        .chain(fraction_kept)
+        .take(19)
+        .fold(0u64, |v, &b| v * 10 + u64::from(b.wrapping_sub(b'0')));
+    let sticky = int_cut.iter().chain(fraction_cut).any(|&b| b != b'0');
+    // Cut digits before the point still scale the value; kept ones after
+    // it divide it.
+    let places = int_cut.len() as i32 - fraction_kept.len() as i32 - skipped.len() as i32;
+    Cut {
+        value,
+        lead,
+        kept,
+        exponent: exponent.saturating_add(places),
+        sticky,
     }
-    c
+}
+
+/// Powers of ten that fit a `u32`: the scale of a run of up to nine digits.
+const POW10_U32: [u32; 10] = [
+    1,
+    10,
+    100,
+    1_000,
+    10_000,
+    100_000,
+    1_000_000,
+    10_000_000,
+    100_000_000,
+    1_000_000_000,
+];
+
+/// `t` split after `n` bytes (all of it in the first part when shorter).
+fn split(t: &[u8], n: usize) -> (&[u8], &[u8]) {
+    t.split_at_checked(n).unwrap_or((t, &[]))
+}
+
+/// How many `0` digits `t` starts with.
+fn zeros(t: &[u8]) -> usize {
+    t.iter().take_while(|&&b| b == b'0').count()
+}
+
+/// How many ASCII digits `t` starts with.
+#[cfg(test)]
+fn digit_count(t: &[u8]) -> usize {
+    t.iter().take_while(|b| b.is_ascii_digit()).count()
+}
+
+/// The exponent after a mantissa (`e`/`E`, sign, digits), 0 without one;
+/// clamped: anything this large is out of range anyway.
+#[cfg(test)]
+fn written_exponent(rest: &[u8]) -> i32 {
+    let Some((b'e' | b'E', r)) = rest.split_first() else {
+        return 0;
+    };
+    let (negative, digits) = match r.split_first() {
+        Some((b'-', d)) => (true, d),
+        Some((b'+', d)) => (false, d),
+        _ => (false, r),
+    };
+    let e = digits
+        .iter()
+        .take_while(|b| b.is_ascii_digit())
+        .fold(0i32, |e, &b| (e * 10 + i32::from(b - b'0')).min(100_000));
+    if negative {
+        -e
+    } else {
+        e
+    }
 }
 
 /// A non-negative integer of at most [`WORDS`] 32-bit words, little end
@@ -199,22 +269,25 @@ impl Big {
             self.overflow = true;
             return;
         }
-        let old = self.words;
+        // In place, from the top down: word `i` takes from words
+        // `i - words` and `i - words - 1`, which are not written yet.
         let old_len = self.len;
-        let word = |j: Option<usize>| {
-            j.filter(|&j| j < old_len)
-                .and_then(|j| old.get(j))
-                .copied()
-                .unwrap_or(0)
-        };
-        for (i, slot) in self.words.iter_mut().enumerate().take(len) {
-            let hi = word(i.checked_sub(words));
-            let lo = word(i.checked_sub(words + 1));
-            *slot = if bits == 0 {
-                hi
-            } else {
-                hi << bits | lo >> (32 - bits)
+        for i in (0..len).rev() {
+            let word = |j: Option<usize>, w: &[u32; WORDS]| {
+                j.filter(|&j| j < old_len)
+                    .and_then(|j| w.get(j))
+                    .copied()
+                    .unwrap_or(0)
             };
+            let hi = word(i.checked_sub(words), &self.words);
+            let lo = word(i.checked_sub(words + 1), &self.words);
+            if let Some(slot) = self.words.get_mut(i) {
+                *slot = if bits == 0 {
+                    hi
+                } else {
+                    hi << bits | lo >> (32 - bits)
+                };
+            }
         }
         self.len = len;
         self.trim();
@@ -343,10 +416,16 @@ fn settle_near(d: &Big, c: &Cut, approx: f64) -> Result<Option<f32>, NumberError
 }
 
 /// The correctly rounded magnitude of a decimal text (sign ignored; the
-/// caller has checked it is a decimal). Bounded work: one pass over the
-/// text, then at most a few hundred word operations.
+/// caller has checked it is a decimal).
+#[cfg(test)]
 pub fn parse_magnitude(t: &[u8]) -> Result<f32, NumberError> {
-    let c = cut(t);
+    parse_parts(Parts::of(t))
+}
+
+/// The correctly rounded magnitude of a decimal. Bounded work: one pass
+/// over its digits, then at most a few hundred word operations.
+pub fn parse_parts(parts: Parts<'_>) -> Result<f32, NumberError> {
+    let c = cut(parts);
     if c.kept == 0 {
         return Ok(0.0);
     }

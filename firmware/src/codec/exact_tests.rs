@@ -130,3 +130,53 @@ fn big_never_overflows_within_bounds() {
         assert_eq!(got.ok().map(f32::to_bits), oracle(&text), "{text}");
     }
 }
+
+/// `parse_f32` hands the exact path the digits its own scanner found
+/// ([`Parts`] from `Decimal::parts`): on every text it reads (at most
+/// `MAX_NUMBER_LEN` characters: long mantissas, leading zeros, points
+/// anywhere, exponents, midpoints written out) it rounds as core does.
+#[test]
+fn m5_parse_f32_reaches_the_exact_path_with_the_right_digits() {
+    use crate::codec::number::{parse_f32, MAX_NUMBER_LEN};
+    let check = |text: &str| {
+        let core = text
+            .parse::<f32>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .map(f32::to_bits);
+        let ours = parse_f32(text.as_bytes()).ok().map(f32::to_bits);
+        assert_eq!(ours, core, "{text}");
+    };
+    let mut next = crate::codec::xorshift64(0x9e37_79b9_7f4a_7c15);
+    for _ in 0..100_000 {
+        let r = next();
+        let mut text = String::from(["", "-", "+"][(r % 3) as usize]);
+        let zeros = (r >> 8) as usize % 4;
+        let digits = 1 + (r >> 16) as usize % 40;
+        let point = (r >> 24) as usize % (digits + 2);
+        for i in 0..zeros + digits {
+            if i == point {
+                text.push('.');
+            }
+            let d = if i < zeros { 0 } else { next() % 10 };
+            text.push((b'0' + d as u8) as char);
+        }
+        if r >> 40 & 1 == 1 {
+            text.push_str(&format!("e{}", (r >> 48) as i32 % 50 - 25));
+        }
+        if text.len() <= MAX_NUMBER_LEN {
+            check(&text);
+        }
+    }
+    let mut next = crate::codec::xorshift32(11);
+    for _ in 0..5_000 {
+        let bits = next() & 0x7f7f_ffff;
+        let (digits, e) = exact_decimal(midpoint(bits, bits + 1).0, midpoint(bits, bits + 1).1);
+        // As long as a number may be, the point after the first digit.
+        let (first, rest) = digits.split_at(1);
+        let rest = &rest[..rest.len().min(MAX_NUMBER_LEN - 8)];
+        let e = e + (digits.len() - 1) as i32;
+        check(&format!("{first}.{rest}e{e}"));
+        check(&format!("{first}.{rest}1e{e}"));
+    }
+}

@@ -6,6 +6,7 @@
 //! one generic engine behind every layout, so its no-panic, no-heap and
 //! bounded-work guarantees hold for any configuration.
 
+pub mod compiled;
 pub mod decode;
 pub mod encode;
 mod exact;
@@ -40,5 +41,7 @@ fn xorshift32(seed: u32) -> impl FnMut() -> u32 {
     }
 }
 
-pub use decode::{decode, DecodeError, DecodeErrorKind, Decoded, Tally, EXTRA_ITEMS};
+pub use decode::{
+    decode, decode_general, DecodeError, DecodeErrorKind, Decoded, Tally, EXTRA_ITEMS,
+};
 pub use encode::{encode, BufferTooSmall, Encoded};

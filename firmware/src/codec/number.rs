@@ -133,24 +133,46 @@ struct Decimal<'t> {
     /// The written exponent with the fraction digits' in it; like
     /// `mantissa`, the number's only while `long` is `None`.
     exponent: i32,
-    /// More than 19 digits: the digits after the sign, how many there are
-    /// before the point and after it (read by [`Decimal::kept`] when
-    /// needed: `parse_f32` hands such a text to `codec::exact` whole).
-    long: Option<(&'t [u8], usize, usize)>,
+    /// More than 19 digits: `mantissa` and `exponent` are not the
+    /// number's; [`Decimal::kept`] and [`Decimal::parts`] are.
+    long: bool,
+    /// The digits after the sign, how many there are before the point and
+    /// after it: where `codec::exact` and [`Decimal::kept`] read them
+    /// again, without scanning the text for them a second time.
+    digits: &'t [u8],
+    whole: usize,
+    fraction: usize,
     /// The exponent as written (`0` without one).
     written_exponent: i32,
 }
 
-impl Decimal<'_> {
+impl<'t> Decimal<'t> {
     /// The first 19 significant digits, the power of ten that goes with
     /// them and the first digit dropped (for rounding).
     fn kept(&self) -> (u64, i32, Option<u8>) {
-        match self.long {
-            None => (self.mantissa, self.exponent, None),
-            Some((digits, whole, fraction)) => {
-                let (m, e, first_dropped) = long_mantissa(digits, whole, fraction);
-                (m, e + self.written_exponent, first_dropped)
-            }
+        if !self.long {
+            return (self.mantissa, self.exponent, None);
+        }
+        let (m, e, first_dropped) = long_mantissa(self.digits, self.whole, self.fraction);
+        (m, e + self.written_exponent, first_dropped)
+    }
+
+    /// The number's digits before and after the point, and its written
+    /// exponent, for `codec::exact`.
+    fn parts(&self) -> super::exact::Parts<'t> {
+        let (int, rest) = self
+            .digits
+            .split_at_checked(self.whole)
+            .unwrap_or((self.digits, &[]));
+        // After the integer digits: the point, then the fraction digits.
+        let fraction = rest
+            .get(1..)
+            .and_then(|r| r.get(..self.fraction))
+            .unwrap_or(&[]);
+        super::exact::Parts {
+            int,
+            fraction,
+            exponent: self.written_exponent,
         }
     }
 }
@@ -285,13 +307,15 @@ fn split_decimal(t: &[u8]) -> Option<Decimal<'_>> {
         [] => 0,
         rest => exponent_part(rest)?,
     };
-    let long = (taken > SAFE_DIGITS).then_some((m.digits, m.whole, m.fraction));
     Some(Decimal {
         negative: m.negative,
         mantissa: m.value,
         // While at most 19 digits: `fraction` ≤ 19 fits an i32.
         exponent: written_exponent - (m.fraction.min(SAFE_DIGITS) as i32),
-        long,
+        long: taken > SAFE_DIGITS,
+        digits: m.digits,
+        whole: m.whole,
+        fraction: m.fraction,
         written_exponent,
     })
 }
@@ -344,24 +368,55 @@ pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
 /// else, or where no fast path holds.
 #[inline(always)]
 fn plain(text: &[u8]) -> Option<f32> {
-    // Longer than 19 digits, a sign and a point: not plain.
+    // Longer than 19 digits, a sign and a point: not plain (refused before
+    // any digit is read, so a long hostile text costs nothing here).
     if text.len() > SAFE_DIGITS + 2 {
         return None;
     }
-    let (negative, t) = sign(text);
-    let (_, rest, m) = digit_run(t, 0);
-    let (m, fraction, digits) = match rest {
-        [] => (m, 0, t.len()),
-        [b'.', after @ ..] => match digit_run(after, m) {
-            (_, [], m) => (m, after.len(), t.len() - 1),
-            _ => return None,
-        },
-        _ => return None,
-    };
-    if !(1..=SAFE_DIGITS).contains(&digits) {
-        return None;
+    match plain_scan(text)? {
+        (negative, m, fraction, []) => plain_value(negative, m, fraction),
+        _ => None,
     }
-    // `fraction` < 21 fits an i32.
+}
+
+/// [`parse_f32`]'s plain path at the start of `text`, for the compiled
+/// decode path (`codec::compiled`), which reads a value in place up to its
+/// closing quote: the value and how many bytes it took. When the byte
+/// after them cannot continue a number (a quote, `<`), `parse_f32` of
+/// exactly those bytes gives the same value: both are [`plain_scan`] and
+/// [`plain_value`] over the same digits. `None` where the plain path does
+/// not hold.
+#[inline(always)]
+pub(crate) fn plain_prefix(text: &[u8]) -> Option<(f32, usize)> {
+    let (negative, m, fraction, rest) = plain_scan(text)?;
+    Some((plain_value(negative, m, fraction)?, text.len() - rest.len()))
+}
+
+/// The one plain scanner behind [`plain`] and [`plain_prefix`]: `[sign]
+/// digits [. digits]` with 1 to 19 digits at the start of `text` (so at
+/// most 21 bytes, though a longer digit run is read to its end before it
+/// is refused): the sign, the digits as one integer, how many follow the
+/// point, and what follows the number.
+#[inline(always)]
+fn plain_scan(text: &[u8]) -> Option<(bool, u64, usize, &[u8])> {
+    let (negative, t) = sign(text);
+    let (whole, rest, m) = digit_run(t, 0);
+    let (m, fraction, rest) = match rest {
+        [b'.', after @ ..] => {
+            let (fraction, rest, m) = digit_run(after, m);
+            (m, fraction, rest)
+        }
+        _ => (m, 0, rest),
+    };
+    (1..=SAFE_DIGITS)
+        .contains(&(whole + fraction))
+        .then_some((negative, m, fraction, rest))
+}
+
+/// A plain number's value by Clinger's fast paths (`fraction` ≤ 19).
+#[inline(always)]
+fn plain_value(negative: bool, m: u64, fraction: usize) -> Option<f32> {
+    // `fraction` ≤ 19 fits an i32.
     let v = clinger(m, -(fraction as i32))?;
     Some(if negative { -v } else { v })
 }
@@ -376,26 +431,26 @@ fn parse_f32_general(text: &[u8]) -> Result<f32, NumberError> {
         return Err(NumberError::TooLong);
     }
     let d = split_decimal(t).ok_or(NumberError::Syntax)?;
-    // More than 19 digits: straight to the exact path (which reads the
-    // text itself), without taking the digits twice.
+    // More than 19 digits: straight to the exact path, which takes the
+    // digits where the scan found them.
     let fast = match d.long {
-        None => clinger(d.mantissa, d.exponent),
-        Some(_) => None,
+        false => clinger(d.mantissa, d.exponent),
+        true => None,
     };
     let v = match fast {
         Some(v) => v,
-        None => exact_magnitude(t)?,
+        None => exact_magnitude(d.parts())?,
     };
     Ok(if d.negative { -v } else { v })
 }
 
-/// The magnitude of `t` where no fast path applies, by `codec::exact`,
-/// with a result beyond `f32` refused. Out of line, so the
+/// The magnitude of a decimal where no fast path applies, by
+/// `codec::exact`, with a result beyond `f32` refused. Out of line, so the
 /// common path keeps its registers.
 #[cold]
 #[inline(never)]
-fn exact_magnitude(t: &[u8]) -> Result<f32, NumberError> {
-    let v = super::exact::parse_magnitude(t)?;
+fn exact_magnitude(parts: super::exact::Parts<'_>) -> Result<f32, NumberError> {
+    let v = super::exact::parse_parts(parts)?;
     if v.is_finite() {
         Ok(v)
     } else {

@@ -1,12 +1,16 @@
 //! NUCLEO-F767ZI: STM32F767ZI (Cortex-M7, 2 MiB flash, 512 KiB RAM), the
-//! root `memory.x`.
+//! root `memory.x`: the DTCM for the stack and the statics, SRAM1 + SRAM2
+//! for the Ethernet DMA rings (see `memory.rs`).
 
+use super::clock::Source;
 use embassy_stm32::adc::SampleTime;
 use embassy_stm32::time::Hertz;
 
 pub const NAME: &str = "NUCLEO-F767ZI";
 /// The core clock: 216 MHz, the chip's maximum.
 pub const SYSCLK_HZ: u32 = 216_000_000;
+/// The HSI's frequency, which the core runs at out of reset.
+pub const RESET_HSI_HZ: u32 = 16_000_000;
 
 pub type Iwdg = embassy_stm32::peripherals::IWDG;
 /// Takes the independent watchdog out of the chip's peripherals.
@@ -16,27 +20,46 @@ macro_rules! iwdg {
     };
 }
 pub(super) use iwdg;
+/// LD2 (blue) on the NUCLEO-F767ZI (MB1137).
+macro_rules! ld2 {
+    ($p:ident) => {
+        $p.PB7
+    };
+}
+pub(super) use ld2;
 /// 112 ADC clock cycles (ADC clock 27 MHz): about 4 µs per conversion.
 pub const SAMPLE_TIME: SampleTime = SampleTime::CYCLES112;
 /// 12-bit conversions.
 pub const ADC_FULL_SCALE: f32 = 4095.0;
 
-/// 216 MHz from the ST-LINK's 8 MHz clock output (HSE bypass, the NUCLEO's
-/// default solder bridges): 8 / 4 × 216 / 2. AHB 216 MHz, APB1 54 MHz,
-/// APB2 108 MHz (the maxima).
-pub fn config() -> embassy_stm32::Config {
+/// 216 MHz from a 2 MHz PLL input: the ST-LINK's 8 MHz (HSE bypass, the
+/// NUCLEO's default solder bridges) / 4, or the 16 MHz HSI / 8 when that
+/// clock is missing (see `clock.rs`); × 216 = 432 MHz, P / 2 = 216 MHz
+/// for the core, Q / 9 = 48 MHz for the 48 MHz domain (the RNG; RM0410
+/// requires 48 MHz there, and PLLQ's reset value would give 108). AHB
+/// 216 MHz, APB1 54 MHz, APB2 108 MHz (the maxima).
+pub fn config(source: Source) -> embassy_stm32::Config {
     use embassy_stm32::rcc::*;
     let mut config = embassy_stm32::Config::default();
-    config.rcc.hse = Some(Hse {
-        freq: Hertz(8_000_000),
-        mode: HseMode::Bypass,
-    });
-    config.rcc.pll_src = PllSource::HSE;
+    let prediv = match source {
+        Source::Hse => {
+            config.rcc.hse = Some(Hse {
+                freq: Hertz(8_000_000),
+                mode: HseMode::Bypass,
+            });
+            config.rcc.pll_src = PllSource::HSE;
+            PllPreDiv::DIV4
+        }
+        Source::Hsi => {
+            config.rcc.pll_src = PllSource::HSI;
+            PllPreDiv::DIV8
+        }
+    };
     config.rcc.pll = Some(Pll {
-        prediv: PllPreDiv::DIV4,
+        prediv,
         mul: PllMul::MUL216,
         divp: Some(PllPDiv::DIV2),
-        divq: None,
+        divq: Some(PllQDiv::DIV9),
         divr: None,
     });
     config.rcc.ahb_pre = AHBPrescaler::DIV1;

@@ -1,14 +1,24 @@
-//! NUCLEO-H743ZI: STM32H743ZI (Cortex-M7, 2 MiB flash), linked with
-//! `memory/nucleo-h743zi.x`: all RAM in the 512 KiB AXI SRAM, which the
-//! Ethernet DMA can reach (the DTCM at 0x2000_0000 it cannot).
+//! NUCLEO-H743ZI2 (and the older NUCLEO-H743ZI): STM32H743ZI (Cortex-M7,
+//! 2 MiB flash), linked with `memory/nucleo-h743zi.x`: the DTCM for the
+//! stack and the statics, the AXI SRAM for the Ethernet DMA rings (the
+//! Ethernet DMA cannot reach the DTCM; see `memory.rs`).
+//!
+//! The two boards differ, for this firmware, in one pin: LD2 is on PE1
+//! (yellow) on the NUCLEO-H743ZI2 (MB1364), the board sold today, and on
+//! PB7 (blue) on the older NUCLEO-H743ZI (MB1137). The ZI2's is driven;
+//! on the older board LD2 stays dark and PE1, wired to a header pin
+//! there, is driven low/high with the cycle LED.
 
+use super::clock::Source;
 use embassy_stm32::adc::SampleTime;
 use embassy_stm32::time::Hertz;
 
-pub const NAME: &str = "NUCLEO-H743ZI";
+pub const NAME: &str = "NUCLEO-H743ZI2";
 /// The core clock: 400 MHz (voltage scale 1; 480 MHz would need VOS0 and a
 /// revision V chip).
 pub const SYSCLK_HZ: u32 = 400_000_000;
+/// The HSI's frequency, which the core runs at out of reset.
+pub const RESET_HSI_HZ: u32 = 64_000_000;
 
 pub type Iwdg = embassy_stm32::peripherals::IWDG1;
 /// Takes the independent watchdog out of the chip's peripherals.
@@ -18,25 +28,46 @@ macro_rules! iwdg {
     };
 }
 pub(super) use iwdg;
+/// LD2 (yellow) on the NUCLEO-H743ZI2 (MB1364); PB7 on the older ZI.
+macro_rules! ld2 {
+    ($p:ident) => {
+        $p.PE1
+    };
+}
+pub(super) use ld2;
 /// 32.5 ADC clock cycles: well under a microsecond per conversion.
 pub const SAMPLE_TIME: SampleTime = SampleTime::CYCLES32_5;
 /// embassy-stm32's default resolution on the H7: 16 bits.
 pub const ADC_FULL_SCALE: f32 = 65535.0;
 
-/// 400 MHz from the ST-LINK's 8 MHz clock output (HSE bypass, the NUCLEO's
-/// default solder bridges): PLL1 8 / 4 × 400 / 2; AHB 200 MHz, APBs
-/// 100 MHz. PLL2 P (100 MHz) clocks the ADC, HSI48 the RNG.
-pub fn config() -> embassy_stm32::Config {
+/// 400 MHz from a 2 MHz PLL input: the ST-LINK's 8 MHz (HSE bypass, the
+/// NUCLEO's default solder bridges) / 4, or the 64 MHz HSI / 32 when that
+/// clock is missing (see `clock.rs`). PLL1 × 400 / 2 for the core; AHB
+/// 200 MHz, APBs 100 MHz. PLL2 P (100 MHz) clocks the ADC, HSI48 the RNG.
+/// The CSI is on so that embassy-stm32 enables the I/O compensation cell,
+/// which the Ethernet pins at very high speed need (RM0433; embassy's own
+/// H7 examples and tests turn it on the same way).
+pub fn config(source: Source) -> embassy_stm32::Config {
     use embassy_stm32::rcc::*;
     let mut config = embassy_stm32::Config::default();
-    config.rcc.hse = Some(Hse {
-        freq: Hertz(8_000_000),
-        mode: HseMode::Bypass,
-    });
+    let (pll_source, prediv) = match source {
+        Source::Hse => {
+            config.rcc.hse = Some(Hse {
+                freq: Hertz(8_000_000),
+                mode: HseMode::Bypass,
+            });
+            (PllSource::HSE, PllPreDiv::DIV4)
+        }
+        Source::Hsi => {
+            config.rcc.hsi = Some(HSIPrescaler::DIV1);
+            (PllSource::HSI, PllPreDiv::DIV32)
+        }
+    };
+    config.rcc.csi = true;
     config.rcc.hsi48 = Some(Default::default());
     config.rcc.pll1 = Some(Pll {
-        source: PllSource::HSE,
-        prediv: PllPreDiv::DIV4,
+        source: pll_source,
+        prediv,
         mul: PllMul::MUL400,
         fracn: None,
         divp: Some(PllDiv::DIV2),
@@ -44,8 +75,8 @@ pub fn config() -> embassy_stm32::Config {
         divr: None,
     });
     config.rcc.pll2 = Some(Pll {
-        source: PllSource::HSE,
-        prediv: PllPreDiv::DIV4,
+        source: pll_source,
+        prediv,
         mul: PllMul::MUL200,
         fracn: None,
         divp: Some(PllDiv::DIV4),

@@ -1,33 +1,40 @@
-//! The STM32 NUCLEO-144 Ethernet boards (NUCLEO-F767ZI, NUCLEO-H743ZI) on
+//! The STM32 NUCLEO-144 Ethernet boards (NUCLEO-F767ZI, NUCLEO-H743ZI2) on
 //! embassy-stm32. Both share the board layout, so everything but the chip's
 //! clocks and peripheral names lives here; [`chip`] is the one file that
 //! differs (`f767zi.rs`, `h743zi.rs`).
 //!
 //! What the firmware gets:
-//! - network: the MAC's RMII to the on-board LAN8742 PHY (`GenericPhy` over
-//!   MDIO), pins as wired on every NUCLEO-144 (PA1 REF_CLK, PA2 MDIO, PA7
-//!   CRS_DV, PB13 TXD1, PC1 MDC, PC4/PC5 RXD0/1, PG11 TX_EN, PG13 TXD0); a
+//! - network: the MAC's RMII to the on-board LAN8742A PHY, pins as wired
+//!   on every NUCLEO-144 (PA1 REF_CLK, PA2 MDIO, PA7 CRS_DV, PB13 TXD1,
+//!   PC1 MDC, PC4/PC5 RXD0/1, PG11 TX_EN, PG13 TXD0); the PHY read over
+//!   MDIO by a background task, never on the cycle's path ([`phy`]); a
 //!   locally administered MAC derived from the chip's unique ID
-//!   ([`crate::mac`]); the DMA rings in the board's RAM (on the H743 the
-//!   linker puts all RAM in AXI SRAM, which its Ethernet DMA can reach);
+//!   ([`crate::mac`]); the DMA rings sized for every layout
+//!   ([`crate::rx_ring`]) in their own memory ([`memory`]);
+//! - clocks from the ST-LINK's 8 MHz output, or the internal HSI when it is
+//!   missing ([`clock`]);
+//! - memory: stack and statics in the DTCM, the instruction and data
+//!   caches on ([`memory`]);
 //! - time: embassy-stm32's time driver on a general-purpose timer;
 //!   [`cycle_counter`] is the DWT cycle counter (real core cycles);
 //! - the urgent executor on UART4's interrupt (the UART is unused);
-//! - LEDs: LD1 (green, PB0) shows the sensor state, LD2 (blue, PB7) the
-//!   answered cycles;
+//! - LEDs: LD1 (green, PB0) shows the sensor state, LD2 the answered
+//!   cycles (PB7 on the F767ZI, PE1 on the H743ZI2);
 //! - sample source: ADC1 on the Arduino header's A0 (PA3), 0–3.3 V read as
 //!   0–[`RANGE_MM`] mm;
 //! - watchdog: the independent watchdog (its own 32 kHz oscillator; a
 //!   timeout resets the chip);
-//! - defmt over RTT (read by `probe-rs run`), a panic handler that logs and
-//!   resets, and a seed for the network stack from the hardware RNG.
+//! - defmt over RTT (read by `probe-rs run`), a panic handler and a
+//!   HardFault handler ([`crate::fault`]) that log and reset, and a seed for
+//!   the network stack from the hardware RNG.
 //!
 //! Interrupt priorities (lower is more urgent): the Ethernet interrupt and
 //! the time driver's timer at embassy-stm32's default P0, the urgent
-//! executor at P6; thread mode below all.
+//! executor at P6; thread mode (the background tasks and the PHY monitor)
+//! below all.
 //!
 //! Nothing here has run on a real board yet: it builds, links inside the
-//! board's memory map and its sizes are checked in CI.
+//! board's memory map and its sizes and placement are checked in CI.
 #![allow(unsafe_code)]
 
 #[cfg(feature = "nucleo-f767zi")]
@@ -36,15 +43,18 @@ mod chip;
 #[cfg(feature = "nucleo-h743zi")]
 #[path = "h743zi.rs"]
 mod chip;
+pub mod clock;
+pub mod memory;
+pub mod phy;
 
 use defmt_rtt as _;
 use embassy_executor::{Executor, InterruptExecutor, SendSpawner, Spawner};
 use embassy_stm32::adc::{Adc, SampleTime};
-use embassy_stm32::eth::{Ethernet, GenericPhy, PacketQueue, Sma};
+use embassy_stm32::eth::{Ethernet, Sma};
 use embassy_stm32::gpio::{Level, Output, Speed};
 use embassy_stm32::interrupt;
 use embassy_stm32::interrupt::{InterruptExt, Priority};
-use embassy_stm32::peripherals::{ADC1, ETH, ETH_SMA, PA3};
+use embassy_stm32::peripherals::{ADC1, ETH, PA3};
 use embassy_stm32::rng::Rng;
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::Peri;
@@ -58,14 +68,22 @@ embassy_stm32::bind_interrupts!(struct Irqs {
 
 /// The analog input's full scale, as a distance for the demo application.
 pub const RANGE_MM: f32 = 300.0;
-/// Ethernet DMA descriptors and buffers: frames in flight each way. The
-/// cycle has one message at a time; four leave room for ARP and a burst of
-/// fragments.
+/// Ethernet transmit frames: a reply in up to three fragments (any reply
+/// the IP stack can fragment: 4,096 bytes) and an ARP answer. A full ring
+/// only makes the stack wait; nothing is lost.
 const TX_FRAMES: usize = 4;
-const RX_FRAMES: usize = 4;
+/// Ethernet receive frames: whatever may arrive while the cycle computes
+/// (see [`crate::rx_ring`]): two datagrams in reassembly at smoltcp's
+/// limit, or a burst of one datagram per robot property, plus ARP and a
+/// margin. 18 with the firmware's smoltcp settings.
+pub const RX_FRAMES: usize = crate::rx_ring::rx_frames(
+    smoltcp::config::REASSEMBLY_BUFFER_SIZE,
+    smoltcp::config::REASSEMBLY_BUFFER_COUNT,
+    rri_vocabulary::MAX_PROPERTIES,
+);
 
 /// The board's network driver.
-pub type Net = Ethernet<'static, ETH, GenericPhy<Sma<'static, ETH_SMA>>>;
+pub type Net = Ethernet<'static, ETH, phy::CachedLink>;
 
 /// Everything the firmware takes from the board.
 pub struct Board {
@@ -78,23 +96,55 @@ pub struct Board {
     pub seed: u64,
 }
 
-/// The board cannot fail to start: a clock that does not come up hangs in
-/// embassy-stm32's init (the watchdog is not running yet), which is what
-/// to check first on a board that stays dark.
-pub type InitError = core::convert::Infallible;
+/// Why the board could not start. Nothing in start-up waits forever: a
+/// missing ST-LINK clock falls back to the HSI ([`clock`]), a PHY that does
+/// not answer is logged and retried ([`phy`]).
+#[derive(Clone, Copy, Debug, defmt::Format)]
+pub enum InitError {
+    /// `init` was called twice (the DMA rings are handed out once).
+    AlreadyStarted,
+}
 
-/// Starts the clocks, the cycle counter and the Ethernet MAC. Call once,
-/// first.
+/// Starts the caches, the clocks, the cycle counter and the Ethernet MAC.
+/// Call once, first.
 pub fn init() -> Result<Board, InitError> {
-    let p = embassy_stm32::init(chip::config());
     // SAFETY: called once at start-up, before any task exists; embassy-stm32
     // does not use these core peripherals.
     let mut cp = unsafe { cortex_m::Peripherals::steal() };
+    // Before anything is cached (the MPU window first).
+    let caches = memory::enable_caches(&mut cp);
+    let source = clock::probe(chip::RESET_HSI_HZ);
+    let p = embassy_stm32::init(chip::config(source));
+    match source {
+        clock::Source::Hse => defmt::info!(
+            "clock: {=u32} MHz from the ST-LINK's 8 MHz (HSE bypass)",
+            SYSCLK_HZ / 1_000_000
+        ),
+        clock::Source::Hsi => defmt::warn!(
+            "clock: no 8 MHz from the ST-LINK on OSC_IN within {=u32} ms: {=u32} MHz from the internal HSI (about 1 % accurate: the time base and the timestamps drift)",
+            clock::HSE_WAIT_MS,
+            SYSCLK_HZ / 1_000_000
+        ),
+    }
+    match caches {
+        Ok(c) => defmt::info!(
+            "caches: instruction on, data {=str}; {=u32:#010x}+{=u32:#x} not cacheable (Ethernet DMA)",
+            if c.data_cache { "on" } else { "off (dcache-off)" },
+            c.uncached_start,
+            c.uncached_size
+        ),
+        Err(e) => {
+            // The memory map is wrong (its linker script asserts this
+            // cannot link): run uncached rather than risk the DMA.
+            cp.SCB.enable_icache();
+            defmt::error!("MPU: the uncached window is not one region ({}): data cache off", e);
+        }
+    }
     cp.DCB.enable_trace();
+    // The STM32F7 locks the DWT after a power cycle (cortex-m's
+    // `DWT::unlock`): without this every cycle count would read 0.
+    cortex_m::peripheral::DWT::unlock();
     cp.DWT.enable_cycle_counter();
-    // The instruction cache is safe with DMA; the data cache is left off so
-    // the Ethernet DMA and the core always agree on memory.
-    cp.SCB.enable_icache();
 
     let mut rng = Rng::new(p.RNG, Irqs);
     let mut seed = [0; 8];
@@ -103,10 +153,9 @@ pub fn init() -> Result<Board, InitError> {
     let uid = embassy_stm32::uid::uid();
     let mac = crate::mac::from_unique_id(&uid);
     defmt::info!("MAC {=[u8]:02x} from unique ID {=[u8]:02x}", mac, uid);
-    static PACKETS: static_cell::StaticCell<PacketQueue<TX_FRAMES, RX_FRAMES>> =
-        static_cell::StaticCell::new();
-    let net = Ethernet::new(
-        PACKETS.init_with(PacketQueue::new),
+    let packets = memory::packet_queue().ok_or(InitError::AlreadyStarted)?;
+    let net = Ethernet::new_with_phy(
+        packets,
         p.ETH,
         Irqs,
         p.PA1,
@@ -117,16 +166,20 @@ pub fn init() -> Result<Board, InitError> {
         p.PB13,
         p.PG11,
         mac,
-        p.ETH_SMA,
-        p.PA2,
-        p.PC1,
+        phy::CachedLink,
     );
+    // After the MAC's reset (in `new_with_phy`): MDIO goes through it.
+    let monitor = phy::Monitor::start(Sma::new(p.ETH_SMA, p.PA2, p.PC1));
+    LINK_MONITOR.lock(|m| m.set(Some(monitor)));
+    if cfg!(feature = "fault-selftest") {
+        crate::fault::selftest();
+    }
     Ok(Board {
         net,
         leds: Leds {
             pins: [
                 Output::new(p.PB0, Level::Low, Speed::Low),
-                Output::new(p.PB7, Level::Low, Speed::Low),
+                Output::new(chip::ld2!(p), Level::Low, Speed::Low),
             ],
         },
         sampler: Sampler {
@@ -157,13 +210,27 @@ pub fn start_urgent_executor() -> SendSpawner {
     URGENT.start(interrupt::UART4)
 }
 
-/// Runs the background tasks (sampler, housekeeping) on embassy's
-/// thread-mode executor, which sleeps in `wfe` between polls (on silicon a
-/// real sleep; the QEMU board idles in `wfi` instead, see its
-/// `run_background`).
+/// The PHY monitor, from [`init`] to [`run_background`].
+static LINK_MONITOR: embassy_sync::blocking_mutex::Mutex<
+    embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex,
+    core::cell::Cell<Option<phy::Monitor>>,
+> = embassy_sync::blocking_mutex::Mutex::new(core::cell::Cell::new(None));
+
+/// Runs the background tasks (sampler, housekeeping) and the board's PHY
+/// monitor on embassy's thread-mode executor, which sleeps in `wfe`
+/// between polls (on silicon a real sleep; the QEMU board idles in `wfi`
+/// instead, see its `run_background`).
 pub fn run_background(init: impl FnOnce(Spawner)) -> ! {
     static THREAD: static_cell::StaticCell<Executor> = static_cell::StaticCell::new();
-    THREAD.init(Executor::new()).run(init)
+    THREAD.init(Executor::new()).run(|spawner| {
+        if let Some(monitor) = LINK_MONITOR.lock(|m| m.take()) {
+            match phy::monitor(monitor) {
+                Ok(task) => spawner.spawn(task),
+                Err(_) => defmt::error!("the PHY monitor could not start: the link stays down"),
+            }
+        }
+        init(spawner)
+    })
 }
 
 /// Core clock cycles (DWT): wraps every 2^32 / [`SYSCLK_HZ`] seconds.
@@ -232,6 +299,11 @@ impl Watchdog {
 /// Resets the board (there is nowhere to exit to).
 pub fn exit(code: i32) -> ! {
     defmt::info!("exit {}: resetting", code);
+    reset_after_logs()
+}
+
+/// After a fault: the log's last lines, then a reset ([`crate::fault`]).
+pub(crate) fn reset() -> ! {
     reset_after_logs()
 }
 

@@ -1,8 +1,10 @@
 //! `cargo boards [-- --board f767|h743]`: builds each STM32 board once
 //! through its alias (`cargo build-f767`, `cargo build-h743`) from the
-//! manual's configuration, checks its ELF against the board's memory map,
-//! prints its sections (as `size -A` does) and fails when flash or static
-//! RAM is over the board's budget. CI runs it; no board is needed.
+//! manual's configuration, checks its ELF against the board's memory map
+//! and placement rules (`host_tests::board_map`: DMA rings uncached and
+//! reachable, stack and statics in the DTCM), prints its sections (as
+//! `size -A` does) and fails when one is broken or flash or static RAM is
+//! over the board's budget. CI runs it; no board is needed.
 
 use clap::{Parser, ValueEnum};
 use host_tests::boards::{self, Board, BOARDS};
@@ -84,5 +86,12 @@ fn print_sections(board: &Board, elf: &std::path::Path, sections: &[(String, u64
     println!("{:<16} {:>8} {:>12}", "section", "size", "addr");
     for (name, addr, size) in sections {
         println!("{name:<16} {size:>8} {addr:>#12x}");
+    }
+    if let Some(stack) = host_tests::board_map::Image::read(elf)
+        .ok()
+        .as_ref()
+        .and_then(host_tests::board_map::stack_bytes)
+    {
+        println!("stack region     {stack:>8} (the DTCM the statics leave)");
     }
 }

@@ -18,7 +18,8 @@
 
 use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMessage};
 use rri_firmware::baseline::{self, Naive};
-use rri_firmware::codec::{decode, encode};
+use rri_firmware::codec::{decode, decode_general, encode};
+use rri_firmware::schema::MessageCodec;
 use rri_firmware::value::Time;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::hint::black_box;
@@ -60,6 +61,24 @@ fn ours(bytes: &[u8], n: u64) -> Result<usize, String> {
         reply.application_data = robot.application_data;
         let ts = d.ts.unwrap_or(Time::ZERO);
         let out = encode::<SensDataMessage>(&reply, d.id, ts, layout::FORMAT, &mut buf)
+            .map_err(|_| "reply larger than MAX_SEND_LEN".to_string())?;
+        total += black_box(&buf[..out.len]).len();
+    }
+    Ok(total)
+}
+
+/// Our path with the general decoder only (xmlparser; what every message
+/// cost before the compiled path, and what a message the compiled path
+/// hands over costs on top of it).
+fn general(bytes: &[u8], n: u64) -> Result<usize, String> {
+    let mut robot = layout::RobotData::default();
+    let reply = layout::SensorData::default();
+    let mut buf = [0u8; layout::MAX_SEND_LEN];
+    let mut total = 0;
+    for _ in 0..n {
+        let d = decode_general::<RobDataMessage>(black_box(bytes), &mut robot)
+            .map_err(|e| format!("the general decoder rejected the message: {e:?}"))?;
+        let out = encode::<SensDataMessage>(&reply, d.id, Time::ZERO, layout::FORMAT, &mut buf)
             .map_err(|_| "reply larger than MAX_SEND_LEN".to_string())?;
         total += black_box(&buf[..out.len]).len();
     }
@@ -233,7 +252,7 @@ fn callgrind_ir(file: &str, n: u64, only: &str) -> Result<u64, String> {
 }
 
 fn usage() -> ExitCode {
-    eprintln!("usage: cargo codec-bench -- <robot-message.xml> <N> [--callgrind] [--only ours|baseline|tokenizer|decode|encode|decode-any]");
+    eprintln!("usage: cargo codec-bench -- <robot-message.xml> <N> [--callgrind] [--only ours|baseline|tokenizer|decode|encode|decode-any|general]");
     eprintln!("       cargo codec-bench -- --hostile   (the hostile corpus under callgrind)");
     ExitCode::from(2)
 }
@@ -271,6 +290,7 @@ fn main() -> ExitCode {
             "decode" => ours_half(&bytes, n, false),
             "encode" => ours_half(&bytes, n, true),
             "decode-any" => decode_any(&bytes, n),
+            "general" => general(&bytes, n),
             _ => return usage(),
         };
         return match r {
@@ -283,9 +303,27 @@ fn main() -> ExitCode {
     }
 
     if args.iter().any(|a| a == "--callgrind") {
-        println!("instructions per message (callgrind, (Ir(N=2000) - Ir(N=1000)) / 1000), {file}:");
+        // Which decode path the message takes: the compiled one, or the
+        // general one after the compiled one handed it over.
+        let compiled =
+            RobDataMessage::decode_compiled(&bytes, &mut layout::RobotData::default()).is_some();
+        println!(
+            "instructions per message (callgrind, (Ir(N=2000) - Ir(N=1000)) / 1000), {file} ({}):",
+            if compiled {
+                "the compiled path takes it"
+            } else {
+                "handed over to the general path"
+            }
+        );
         let mut per = Vec::new();
-        for which in ["ours", "baseline", "tokenizer", "decode", "encode"] {
+        for which in [
+            "ours",
+            "baseline",
+            "tokenizer",
+            "decode",
+            "encode",
+            "general",
+        ] {
             let ir = callgrind_ir(file, 1000, which)
                 .and_then(|a| Ok((a, callgrind_ir(file, 2000, which)?)));
             match ir {
@@ -296,7 +334,8 @@ fn main() -> ExitCode {
                         "baseline" => "baseline (xmlparser + write! {:.3})",
                         "tokenizer" => "  xmlparser alone (tokenizing, nothing else)",
                         "decode" => "  ours, decode only",
-                        _ => "  ours, encode only",
+                        "encode" => "  ours, encode only",
+                        _ => "  ours with the general decoder only (decode + encode)",
                     };
                     println!("  {p:>8} Ir/message  {what}");
                     per.push(p);
@@ -307,25 +346,30 @@ fn main() -> ExitCode {
                 }
             }
         }
-        if let [o, b, t, ..] = per[..] {
+        if let [o, b, t, _, _, g] = per[..] {
             println!(
                 "  {:>8.2}x    fewer instructions than the baseline",
                 b as f64 / o.max(1) as f64
             );
-            // What we add on top of the tokenizer, the figure issue 11
-            // targets (<= 1.45x); printed, not asserted. Three decimals, so
-            // 1.454 does not read as 1.45, and what meeting 1.45 would take.
-            let target = t * 145 / 100;
+            // The issue's targets, printed, not asserted: at most 0.5x
+            // xmlparser alone where the compiled path takes the message,
+            // at most 2.0x where it hands it over. Three decimals, so 0.504
+            // does not read as 0.50.
+            let (limit, name) = if compiled {
+                (50, "0.5x")
+            } else {
+                (200, "2.0x")
+            };
+            let target = t * limit / 100;
             println!(
-                "  {:>8.3}x    xmlparser alone (ours = tokenizing + {} Ir/message of our own; 1.45x is {} Ir, {})",
+                "  {:>8.3}x    xmlparser alone ({name} is {target} Ir, {}); the general decoder alone {:.3}x",
                 o as f64 / t.max(1) as f64,
-                o.saturating_sub(t),
-                target,
                 if o <= target {
                     "met".to_string()
                 } else {
                     format!("{} over", o - target)
-                }
+                },
+                g as f64 / t.max(1) as f64,
             );
         }
         return ExitCode::SUCCESS;

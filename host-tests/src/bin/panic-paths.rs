@@ -8,7 +8,10 @@
 //! entry point (`core::panicking::*`, failed slice indexing, `unwrap` on
 //! `None`/`Err`, …) or to a standard-library function that may reach one.
 //! Each is attributed to the source line the debug info gives for it (the
-//! innermost frame outside the standard library) and listed by crate.
+//! innermost inline frame outside the standard library, read from the
+//! image's DWARF with `addr2line`: at opt-level 3 a dependency's code is
+//! inlined into ours, and the line table alone names only the innermost
+//! frame) and listed by crate.
 //!
 //! Fails when any remaining panic path lies in the firmware crate
 //! (`firmware/src/…`). Paths inside dependencies are listed, not failed:
@@ -122,9 +125,56 @@ fn is_core(function: &str) -> bool {
         || function.contains("rust_begin_unwind")
 }
 
+type Dwarf<'a> = addr2line::gimli::EndianSlice<'a, addr2line::gimli::RunTimeEndian>;
+
+/// The image's debug info (`elf` is its bytes), for the inline frames of
+/// an address.
+fn debug_info(elf: &[u8]) -> Result<addr2line::Context<Dwarf<'_>>, String> {
+    use addr2line::gimli;
+    use object::{Object, ObjectSection};
+    let file = object::File::parse(elf).map_err(|e| format!("the image: {e}"))?;
+    let endian = if file.is_little_endian() {
+        gimli::RunTimeEndian::Little
+    } else {
+        gimli::RunTimeEndian::Big
+    };
+    let section = |id: gimli::SectionId| -> Result<Dwarf<'_>, gimli::Error> {
+        let bytes = file
+            .section_by_name(id.name())
+            .and_then(|s| s.data().ok())
+            .unwrap_or(&[]);
+        Ok(gimli::EndianSlice::new(bytes, endian))
+    };
+    let dwarf = gimli::Dwarf::load(section).map_err(|e| format!("DWARF: {e}"))?;
+    addr2line::Context::from_dwarf(dwarf).map_err(|e| format!("DWARF: {e}"))
+}
+
+/// `file:line` of the innermost inline frame at `addr` outside the
+/// standard library; empty when the debug info has none.
+fn frame_at(lines: &addr2line::Context<Dwarf<'_>>, addr: u64) -> String {
+    let Ok(mut frames) = lines.find_frames(addr).skip_all_loads() else {
+        return String::new();
+    };
+    while let Ok(Some(frame)) = frames.next() {
+        if let Some(addr2line::Location {
+            file: Some(file),
+            line: Some(line),
+            ..
+        }) = frame.location
+        {
+            if !file.starts_with("/rustc/") {
+                return format!("{file}:{line}");
+            }
+        }
+    }
+    String::new()
+}
+
 fn sites(objdump: &Path, elf: &Path) -> Result<Vec<Site>, String> {
+    let image = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let lines = debug_info(&image)?;
     let out = Command::new(objdump)
-        .args(["-d", "-l", "--demangle"])
+        .args(["-d", "--demangle"])
         .arg(elf)
         .output()
         .map_err(|e| format!("cannot run {}: {e}", objdump.display()))?;
@@ -135,7 +185,6 @@ fn sites(objdump: &Path, elf: &Path) -> Result<Vec<Site>, String> {
     // Every call (and tail call): caller, callee, source line at the call.
     let mut calls: Vec<(String, String, String)> = Vec::new();
     let mut function = String::new();
-    let mut source = String::new();
     for line in text.lines() {
         if let Some(name) = line
             .strip_suffix(">:")
@@ -143,23 +192,17 @@ fn sites(objdump: &Path, elf: &Path) -> Result<Vec<Site>, String> {
             .map(|(_, n)| n)
         {
             function = name.to_string();
-            source.clear();
-        } else if let Some(loc) = line.strip_prefix("; ") {
-            // `; file:line` (function-name lines end in `():`). Innermost
-            // frames come last; keep the last outside the standard library.
-            let is_location = loc
-                .rsplit_once(':')
-                .is_some_and(|(_, n)| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()));
-            if is_location && !loc.starts_with("/rustc/") {
-                source = loc.trim().to_string();
-            }
         } else if let Some(target) = line.split(" <").nth(1).and_then(|t| t.rsplit_once('>')) {
             let is_call = ["\tbl\t", "\tb.w\t", "\tb\t", "\tblx\t"]
                 .iter()
                 .any(|m| line.contains(m));
             let callee = target.0.split('+').next().unwrap_or(target.0);
-            if is_call && callee != function {
-                calls.push((function.clone(), callee.to_string(), source.clone()));
+            // `  80001f8: f7ff fffe  \tbl\t…`: the call's address.
+            let addr = line
+                .split_once(':')
+                .and_then(|(a, _)| u64::from_str_radix(a.trim(), 16).ok());
+            if let (true, Some(addr)) = (is_call && callee != function, addr) {
+                calls.push((function.clone(), callee.to_string(), frame_at(&lines, addr)));
             }
         }
     }
@@ -193,21 +236,40 @@ fn sites(objdump: &Path, elf: &Path) -> Result<Vec<Site>, String> {
         .collect())
 }
 
-/// `firmware`, a dependency's name, or `unknown`.
-fn owner(source: &str) -> String {
+/// Whose a panic path is: the crate of its source line, else (a call with
+/// no line outside the standard library) the crate of the function it is
+/// in.
+fn owner(site: &Site) -> String {
+    match source_owner(&site.source) {
+        Some(who) => who,
+        None => site
+            .function
+            .trim_start_matches('<')
+            .split("::")
+            .next()
+            .filter(|c| !c.is_empty())
+            .map_or("unknown".into(), |c| {
+                format!("{} (no source line)", c.replace("rri_firmware", "firmware"))
+            }),
+    }
+}
+
+/// `firmware`, a dependency's name, or `None` without a source line.
+fn source_owner(source: &str) -> Option<String> {
     // The firmware crate and the framer it takes from rri-framing.
     let ours = ["firmware/src/", "firmware/rri-framing/src/"];
     if ours
         .iter()
         .any(|dir| source.contains(&format!("/{dir}")) || source.starts_with(dir))
     {
-        "firmware".into()
-    } else if let Some(rest) = source.split("crates.io/").nth(1) {
-        rest.split('/').next().unwrap_or("crates.io").to_string()
+        Some("firmware".into())
+    } else if let Some(rest) = source.split("/registry/src/").nth(1) {
+        // `…/registry/src/<index>/<crate>-<version>/src/…`
+        Some(rest.split('/').nth(1).unwrap_or("crates.io").to_string())
     } else if source.is_empty() {
-        "unknown".into()
+        None
     } else {
-        source.split('/').next().unwrap_or("unknown").to_string()
+        source.split('/').next().map(str::to_string)
     }
 }
 
@@ -217,15 +279,18 @@ fn run(selftest: bool) -> Result<bool, String> {
     let found = sites(&objdump, &elf)?;
     let mut by_owner: std::collections::BTreeMap<String, Vec<&Site>> = Default::default();
     for s in &found {
-        by_owner.entry(owner(&s.source)).or_default().push(s);
+        by_owner.entry(owner(s)).or_default().push(s);
     }
     println!(
-        "panic paths in the cycle-path image ({}): {}",
+        "panic paths in the cycle-path image ({}): {} calls",
         elf.display(),
         found.len()
     );
     for (who, list) in &by_owner {
-        println!("  {who}: {}", list.len());
+        // One line per panic entry and source line (at opt-level 3 one
+        // check is often inlined in several places).
+        let mut lines: std::collections::BTreeMap<(String, String), (usize, &str)> =
+            Default::default();
         for s in list {
             // `…::contains::h0123…` → `str>::contains`: the name, not the hash.
             let name = match s.entry.rsplit_once("::h") {
@@ -234,11 +299,23 @@ fn run(selftest: bool) -> Result<bool, String> {
             };
             let entry = name.rsplit("::").take(2).collect::<Vec<_>>();
             let entry = entry.iter().rev().cloned().collect::<Vec<_>>().join("::");
-            let f: String = s.function.chars().take(60).collect();
-            println!("    {entry:<34} {:<55} in {f}", s.source);
+            let source = s.source.rsplit("/src/").next().unwrap_or(&s.source);
+            let line = lines
+                .entry((source.to_string(), entry))
+                .or_insert((0, &s.function));
+            line.0 += 1;
+        }
+        println!("  {who}: {} calls at {} places", list.len(), lines.len());
+        for ((source, entry), (n, function)) in &lines {
+            let f: String = function.chars().take(50).collect();
+            println!("    {source:<22} {entry:<34} ×{n:<3} e.g. in {f}");
         }
     }
-    let ours = by_owner.get("firmware").map_or(0, Vec::len);
+    let ours: usize = by_owner
+        .iter()
+        .filter(|(who, _)| who.starts_with("firmware"))
+        .map(|(_, l)| l.len())
+        .sum();
     if selftest {
         let caught = by_owner
             .get("firmware")

@@ -53,6 +53,32 @@ pub fn parse_codec(line: &str) -> Option<(String, u32, u32, u32, u32)> {
     ))
 }
 
+/// Under this much stack margin the bench (and `cargo hil`) fails.
+pub const MIN_STACK_MARGIN_PERCENT: u64 = 25;
+
+/// The device's stack use in bytes: (start-up, running, budget), from its
+/// last `stack: boot B running R of S bytes` line (logged once a second
+/// when the high-water mark grew).
+pub fn last_stack(log: &[String]) -> Option<(u64, u64, u64)> {
+    log.iter().rev().find_map(|l| {
+        let (_, rest) = l.split_once("] stack: ")?;
+        let w: Vec<&str> = rest.split_whitespace().collect();
+        match w.as_slice() {
+            ["boot", b, "running", r, "of", s, ..] => {
+                Some((b.parse().ok()?, r.parse().ok()?, s.parse().ok()?))
+            }
+            _ => None,
+        }
+    })
+}
+
+/// Percent of `size` left at the deeper of `boot` and `running` (the
+/// firmware's own rule, `hal_board::stack::StackUse::margin_percent`).
+pub fn stack_margin_percent((boot, running, size): (u64, u64, u64)) -> u64 {
+    let used = boot.max(running).min(size);
+    (size - used) * 100 / size.max(1)
+}
+
 /// min / median / p99 / max of instruction counts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Spread {
@@ -184,6 +210,18 @@ mod tests {
             parse_codec("[ 0.1 INFO ] codec manual bytes=648 ours=11 tokenizer=7 baseline=21"),
             Some(("manual".into(), 648, 11, 7, 21))
         );
+    }
+
+    #[test]
+    fn stack_lines_parse() {
+        let log = [
+            "[ 1.0 INFO ] stack: boot 56248 running 9000 of 98304 bytes, 42% margin".to_string(),
+            "[ 2.0 INFO ] stack: boot 56248 running 11896 of 98304 bytes, 42% margin".to_string(),
+            "[ 2.0 INFO ] counters: received 1".to_string(),
+        ];
+        assert_eq!(last_stack(&log), Some((56248, 11896, 98304)));
+        assert_eq!(stack_margin_percent((56248, 11896, 98304)), 42);
+        assert_eq!(stack_margin_percent((200, 0, 100)), 0);
     }
 
     #[test]

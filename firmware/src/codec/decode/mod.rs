@@ -72,9 +72,33 @@ fn all_ascii(bytes: &[u8]) -> bool {
 /// Decodes one robot datagram of message `M` into `data` (in place, M2:
 /// fields absent from the message keep their values).
 ///
+/// The message as controllers write it takes the path the build compiled
+/// from the layout ([`MessageCodec::decode_compiled`], see
+/// [`super::compiled`]); whatever that path does not expect goes to
+/// [`decode_general`], which gives the same answer for what both take and
+/// keeps every rule for the rest.
+#[inline]
+pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decoded, DecodeError> {
+    if bytes.len() > M::MAX_RECEIVE_LEN {
+        return Err(err(DecodeErrorKind::TooLong, M::MAX_RECEIVE_LEN));
+    }
+    match M::decode_compiled(bytes, data) {
+        Some(decoded) => Ok(decoded),
+        None => decode_general::<M>(bytes, data),
+    }
+}
+
+/// The general decoder, on `xmlparser`: every message [`decode`] takes,
+/// whatever its shape, with every rule of PROTOCOL.md. The compiled path
+/// is measured and fuzzed against it.
+///
 /// Two layers: `events::walk` checks the message's structure and tells
 /// the `Binder` each event; the binder maps them to the generated record.
-pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decoded, DecodeError> {
+#[inline(never)]
+pub fn decode_general<M: MessageCodec>(
+    bytes: &[u8],
+    data: &mut M::Data,
+) -> Result<Decoded, DecodeError> {
     use DecodeErrorKind as K;
     if bytes.len() > M::MAX_RECEIVE_LEN {
         return Err(err(K::TooLong, M::MAX_RECEIVE_LEN));

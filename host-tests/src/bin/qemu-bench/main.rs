@@ -130,8 +130,63 @@ fn bench(args: &Args) -> Result<bool, String> {
         icount_shift: Some(SHIFT),
     };
     let measured = counted(args, &boot, &gsi, &device)?;
+    let floor = floor(args, &boot, &gsi)?;
     let flooded = flood(args, &boot, &gsi, &device)?;
-    report::report(args, &measured, &flooded)
+    report::report(args, &measured, &floor, &flooded)
+}
+
+/// The floor: the same corpora sent to a build that answers every
+/// datagram with one fixed reply, decoding nothing (feature
+/// `bench-floor`), under the same `-icount`: what the driver, smoltcp and
+/// the executor cost without the cycle, per input.
+fn floor(
+    args: &Args,
+    boot: &Boot,
+    gsi: &std::path::Path,
+) -> Result<Vec<(Input, Vec<Record>)>, String> {
+    println!("== the floor: a build that answers every datagram with a fixed reply, no decoding");
+    let floor_boot = Boot {
+        elf: qemu::build_firmware(&["bench", "bench-floor"], Some(gsi), "bench-floor")?,
+        host_port: qemu::free_port()?,
+        ..boot.clone()
+    };
+    let mut board = Qemu::boot(&floor_boot)?;
+    board.wait_for("state CONNECTED", Duration::from_secs(30))?;
+    let to = SocketAddr::from(([127, 0, 0, 1], floor_boot.host_port));
+    let socket = UdpSocket::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
+    socket
+        .set_read_timeout(Some(Duration::from_millis(50)))
+        .map_err(|e| e.to_string())?;
+    let ws = host_tests::workspace();
+    let mut inputs = qb::realistic(&host_tests::shared_rri(), &ws.join("host-tests/bench"))?;
+    inputs.extend(qb::hostile());
+    // The first datagram waits for ARP through slirp: not measured.
+    let mut next_id = 1;
+    measure(
+        &board,
+        &socket,
+        to,
+        &Input {
+            accepted: true,
+            ..inputs[0].clone()
+        },
+        1,
+        &mut next_id,
+    )?;
+    let rows = inputs
+        .into_iter()
+        .map(|input| {
+            // The floor answers everything.
+            let input = Input {
+                accepted: true,
+                ..input
+            };
+            let got = measure(&board, &socket, to, &input, args.repeat, &mut next_id)?;
+            Ok((input, got))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    finish(board, "during the floor")?;
+    Ok(rows)
 }
 
 /// Boots the bench build under `-icount` and measures: the codec

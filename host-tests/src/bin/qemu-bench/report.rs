@@ -8,13 +8,18 @@ use crate::{
     instructions, Args, Flooded, Measured, CYCLE_AT_216MHZ, INSTRUCTIONS_PER_COUNT, SHIFT,
 };
 use host_tests::qemu;
-use host_tests::qemu_bench::{Gated, Record, Spread};
+use host_tests::qemu_bench::{Gated, Input, Record, Spread};
 use serde_json::json;
 
 /// Prints every figure, writes the summary, log and histogram files, and
 /// returns whether the gated figures passed.
-pub fn report(args: &Args, m: &Measured, fl: &Flooded) -> Result<bool, String> {
-    let figures = Figures::of(m, fl);
+pub fn report(
+    args: &Args,
+    m: &Measured,
+    floor: &[(Input, Vec<Record>)],
+    fl: &Flooded,
+) -> Result<bool, String> {
+    let figures = Figures::of(m, floor, fl);
     print(args, m, fl, &figures);
     write_files(m, fl, &figures)?;
     gate(args, &figures)
@@ -43,10 +48,14 @@ struct Figures {
     /// Stack: start-up, running, budget (bytes) and the margin left (%).
     stack: (u64, u64, u64),
     stack_margin: u64,
+    /// The floor build's full path per input (name, bytes, median, max),
+    /// realistic inputs first, and its max over the realistic ones.
+    floor: Vec<(String, usize, u64, u64)>,
+    floor_max: u64,
 }
 
 impl Figures {
-    fn of(m: &Measured, fl: &Flooded) -> Self {
+    fn of(m: &Measured, floor: &[(Input, Vec<Record>)], fl: &Flooded) -> Self {
         let mut compute: Vec<u64> = m
             .sim_records
             .iter()
@@ -96,6 +105,19 @@ impl Figures {
         let (stack_boot, stack_running, stack_size) = m.stack;
         let stack_used = stack_boot.max(stack_running);
         let stack_margin = (stack_size - stack_used.min(stack_size)) * 100 / stack_size.max(1);
+        let floor: Vec<(String, usize, u64, u64)> = floor
+            .iter()
+            .map(|(input, rows)| {
+                let s = Spread::of(rows.iter().map(|r| instructions(r.full)).collect());
+                (input.name.clone(), input.len(), s.median, s.max)
+            })
+            .collect();
+        let floor_max = floor
+            .iter()
+            .take(m.realistic.len())
+            .map(|f| f.3)
+            .max()
+            .unwrap_or(0);
         Figures {
             compute: Spread::of(compute),
             full: Spread::of(full),
@@ -106,6 +128,8 @@ impl Figures {
             baseline_median,
             stack: m.stack,
             stack_margin,
+            floor,
+            floor_max,
         }
     }
 
@@ -187,6 +211,19 @@ fn print(args: &Args, m: &Measured, fl: &Flooded, x: &Figures) {
     );
     println!("  device: {}", m.counters);
     println!(
+        "\n== the floor: the same inputs to a build that answers with a fixed reply and decodes nothing (driver + smoltcp + executor), full path"
+    );
+    for (name, bytes, median, max) in &x.floor {
+        println!("  {name:<32} {bytes:>5} B  floor median {median:>7}  max {max:>7}");
+    }
+    println!(
+        "  realistic full path: max {} over a floor of {} (the cycle's own work {}, {:.2}× the floor)",
+        x.full.max,
+        x.floor_max,
+        x.full.max.saturating_sub(x.floor_max),
+        x.full.max as f64 / x.floor_max.max(1) as f64
+    );
+    println!(
         "\n== under the flood (real time, {} flood datagrams sent)\n  robot: sent {} answered {} lost {} wrong Id {} malformed {}; late (host wall clock through slirp) {}; latency µs median {} p99 {} max {}",
         fl.driven.flood_sent, f.sent, f.answered, f.lost, f.wrong_id, f.malformed, f.late,
         f.latency_us.median, f.latency_us.p99, f.latency_us.max
@@ -250,6 +287,8 @@ fn write_files(m: &Measured, fl: &Flooded, x: &Figures) -> Result<(), String> {
         "full": x.full,
         "hostile_max": x.hostile_max,
         "hostile": hostile_json,
+        "floor": x.floor.iter().map(|(n, b, med, max)| json!({"name": n, "bytes": b, "median": med, "max": max})).collect::<Vec<_>>(),
+        "floor_realistic_max": x.floor_max,
         "stack": {"boot": stack_boot, "running": stack_running, "budget": stack_size, "margin_percent": x.stack_margin},
         "baseline_compute_median": x.baseline_median,
         "codec": m.codec.iter().map(|(n, b, o, t, base)| json!({"message": n, "bytes": b,

@@ -109,24 +109,7 @@ pub fn last_counters(log: &[String]) -> String {
         .unwrap_or_default()
 }
 
-/// Under this much stack margin the bench fails (the rule).
-pub const MIN_STACK_MARGIN_PERCENT: u64 = 25;
-
-/// The device's stack use in bytes: (start-up, running, budget), from its
-/// last `stack: boot B running R of S bytes` line (logged once a second
-/// when the high-water mark grew).
-pub fn last_stack(log: &[String]) -> Option<(u64, u64, u64)> {
-    log.iter().rev().find_map(|l| {
-        let (_, rest) = l.split_once("] stack: ")?;
-        let w: Vec<&str> = rest.split_whitespace().collect();
-        match w.as_slice() {
-            ["boot", b, "running", r, "of", s, ..] => {
-                Some((b.parse().ok()?, r.parse().ok()?, s.parse().ok()?))
-            }
-            _ => None,
-        }
-    })
-}
+pub use host_tests::qemu_bench::{last_stack, MIN_STACK_MARGIN_PERCENT};
 
 /// Waits (up to 10 s: under -icount the guest's second can be longer) for a
 /// counter line newer than everything the bench did, then returns the last

@@ -1,0 +1,273 @@
+//! `cargo hil -- --board f767|h743|qemu [--to ADDR[:PORT]] [--probe SEL]
+//! [--elf PATH] [--features F]... [--fault] [--cycles N] [--warm-up N]
+//! [--tcp] [--send NAME=MS]... [--reply NAME]`: the hardware acceptance
+//! run, the first real board in one command.
+//!
+//! On a NUCLEO (ST-LINK on USB, Ethernet to this computer's network):
+//! checks that probe-rs and a probe are there (saying in one line what is
+//! missing, exit status 4, before building anything), builds the firmware
+//! with the `bench` feature (per-message cycle counts from the DWT), checks
+//! the image's memory placement, flashes and runs it with `probe-rs run`
+//! (the defmt log through the probe), waits for the banner, the Ethernet
+//! link and the first state, drives it with the robot simulator after a
+//! warm-up exactly as `cargo demo` does, and prints the same summary plus
+//! the device's own latency per message (compute and full path, in DWT
+//! cycles and µs), its codec figures at boot and its stack margin.
+//! `--board qemu` runs the same harness against the QEMU board (no
+//! probe), which CI does.
+//!
+//! `--fault` checks the HardFault handler instead: the image executes an
+//! undefined instruction at the end of its start-up; the run passes when
+//! the fault is logged with its registers and (on QEMU, where it can be
+//! seen) the board restarts.
+//!
+//! Exit status: 0 passed; 1 failed; 2 bad arguments; 3 every reply right
+//! but late (as `cargo demo`); 4 nothing to run on (probe-rs or the probe
+//! missing).
+
+use clap::Parser;
+use host_tests::demo::{self, Device, Failure, RunArgs, Setup};
+use host_tests::hil::{self, DeviceFigures, HilBoard};
+use host_tests::probe::{self, ProbeRun};
+use host_tests::qemu::{self, Boot, Qemu};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+/// Exit status when probe-rs or the probe is missing.
+const NOTHING_TO_RUN_ON: u8 = 4;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "cargo hil",
+    about = "Build, flash and run the firmware on a NUCLEO board (probe-rs) or the QEMU board, drive it with the robot simulator, and report the device's own latency and stack margin"
+)]
+struct Args {
+    /// The board: f767 (NUCLEO-F767ZI), h743 (NUCLEO-H743ZI2) or qemu (QEMU's mps2-an500).
+    #[arg(long, value_parser = ["f767", "h743", "qemu"])]
+    board: String,
+    /// The device's address, ADDR or ADDR:PORT (default: Description.xml's Network Address and
+    /// the channel's port). Not for qemu (its port is forwarded from 127.0.0.1).
+    #[arg(long)]
+    to: Option<String>,
+    /// Which debug probe, as probe-rs names it (VID:PID or VID:PID:SERIAL), when several are connected.
+    #[arg(long)]
+    probe: Option<String>,
+    /// Run this firmware image instead of building one (a `bench` build for this board).
+    #[arg(long)]
+    elf: Option<PathBuf>,
+    /// More cargo features for the firmware build (repeatable), e.g. hal-board/dcache-off.
+    #[arg(long = "features", value_name = "FEATURE")]
+    features: Vec<String>,
+    /// Check the HardFault handler (an image that faults on purpose) instead of driving the device.
+    #[arg(long)]
+    fault: bool,
+    #[command(flatten)]
+    run: RunArgs,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let Some(board) = hil::board(&args.board) else {
+        eprintln!("error: unknown board {}", args.board);
+        return ExitCode::from(2);
+    };
+    if board.chip.is_some() {
+        if let Err(missing) = probe::check(args.probe.as_deref()) {
+            eprintln!("error: {}", missing.line());
+            return ExitCode::from(NOTHING_TO_RUN_ON);
+        }
+    } else if args.to.is_some() || args.probe.is_some() {
+        eprintln!("error: --to and --probe are for the NUCLEO boards (QEMU's port is forwarded from 127.0.0.1)");
+        return ExitCode::from(2);
+    }
+    match hil_run(board, &args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => f.report(),
+    }
+}
+
+fn hil_run(board: &HilBoard, args: &Args) -> Result<(), Failure> {
+    let mut out = std::io::stdout();
+    if board.chip.is_none() {
+        qemu::ensure_qemu(&mut out)?;
+    }
+    let setup = Setup::new(args.run.tcp)?;
+    let elf = match &args.elf {
+        Some(elf) => elf.clone(),
+        None => build(board, args, &setup)?,
+    };
+    hil::check_image(board, &elf)?;
+    let (dev, to) = start(board, args, &setup, elf)?;
+    if args.fault {
+        return fault(dev, board);
+    }
+    let mut dev = dev;
+    let mut ready = Vec::new();
+    if board.chip.is_some() {
+        // Flashing comes first, then the banner; the link takes the PHY's
+        // auto-negotiation (about 2 s).
+        wait(&mut *dev, "rri-sensor", 60, "")?;
+        wait(
+            &mut *dev,
+            "link up",
+            15,
+            "no Ethernet link: is the cable in, and does the other end auto-negotiate 100 Mbit/s full duplex? (see the device's PHY lines above)",
+        )?;
+        if setup.device.channel.protocol != gsi_config::Protocol::Tcp {
+            ready.push(("state CONNECTED", Duration::from_secs(10)));
+        }
+    } else {
+        ready = demo::qemu_ready(&setup);
+    }
+    println!(
+        "== driving {} at {to}",
+        if board.chip.is_some() {
+            "the board"
+        } else {
+            "the QEMU board"
+        }
+    );
+    let ran = demo::drive(dev, &setup, &args.run, to, &ready, &mut out)?;
+    let figures = DeviceFigures::of(&ran.log);
+    let csv = qemu::target_dir()
+        .join("hil")
+        .join(format!("{}-messages.csv", board.key));
+    figures.write_csv(&csv)?;
+    let device = figures.print(board, &mut out);
+    println!("  per-message records: {}", csv.display());
+    demo::verdict("hil", &ran)?;
+    device.map_err(Failure::from)
+}
+
+/// Builds the bench image for `board` into `target/hil/`.
+fn build(board: &HilBoard, args: &Args, setup: &Setup) -> Result<PathBuf, String> {
+    let mut extra: Vec<&str> = vec!["bench"];
+    if args.fault {
+        extra.push("hal-board/fault-selftest");
+    }
+    extra.extend(args.features.iter().map(String::as_str));
+    // A larger RTT buffer for the bench's line per message (the log never
+    // blocks the firmware: a full buffer drops lines).
+    let env: &[(&str, &str)] = if board.chip.is_some() {
+        &[("DEFMT_RTT_BUFFER_SIZE", "4096")]
+    } else {
+        &[]
+    };
+    let name = format!("{}{}", board.key, if args.fault { "-fault" } else { "" });
+    println!(
+        "== building the bench firmware for {} ({}; features {})",
+        board.key,
+        setup.gsi.display(),
+        extra.join(",")
+    );
+    qemu::build_board(
+        &format!("board,{}", board.feature),
+        &extra,
+        setup.build_gsi.as_deref(),
+        env,
+        "hil",
+        &name,
+    )
+}
+
+/// Starts the device: `probe-rs run` on a NUCLEO, QEMU for `qemu`; and
+/// where the simulator reaches it.
+fn start(
+    board: &HilBoard,
+    args: &Args,
+    setup: &Setup,
+    elf: PathBuf,
+) -> Result<(Box<dyn Device>, SocketAddr), String> {
+    match board.chip {
+        Some(chip) => {
+            let to = match &args.to {
+                None => setup.channel()?,
+                Some(t) => parse_to(t, setup.device.channel.port)?,
+            };
+            println!(
+                "== flashing and running {} on {chip} with probe-rs",
+                elf.display()
+            );
+            let cmd = probe::command(chip, &elf, args.probe.as_deref(), !args.fault);
+            Ok((Box::new(ProbeRun::start(cmd)?), to))
+        }
+        None => {
+            let host_port = qemu::free_port()?;
+            let boot = Boot {
+                elf,
+                device: setup.device.clone(),
+                host_port,
+                icount_shift: None,
+            };
+            println!(
+                "== booting {} on {} (device {} port {} forwarded from 127.0.0.1:{host_port})",
+                boot.elf.display(),
+                qemu::MACHINE,
+                setup.device.network.address,
+                setup.device.channel.port
+            );
+            Ok((
+                Box::new(Qemu::boot(&boot)?),
+                ([127, 0, 0, 1], host_port).into(),
+            ))
+        }
+    }
+}
+
+/// `ADDR` or `ADDR:PORT`.
+fn parse_to(text: &str, port: u16) -> Result<SocketAddr, String> {
+    text.parse::<SocketAddr>()
+        .or_else(|_| {
+            text.parse::<std::net::IpAddr>()
+                .map(|ip| SocketAddr::new(ip, port))
+        })
+        .map_err(|_| format!("--to {text}: not ADDR or ADDR:PORT"))
+}
+
+/// Waits for a line, printing the log so far and `hint` when it does not
+/// come.
+fn wait(dev: &mut dyn Device, needle: &str, seconds: u64, hint: &str) -> Result<(), String> {
+    dev.wait_for(needle, Duration::from_secs(seconds))
+        .map_err(|e| {
+            for line in dev.take_new() {
+                println!("device: {line}");
+            }
+            if hint.is_empty() {
+                e
+            } else {
+                format!("{e}\n{hint}")
+            }
+        })
+}
+
+/// `--fault`: the handler's log line, and on QEMU the restart.
+fn fault(mut dev: Box<dyn Device>, board: &HilBoard) -> Result<(), Failure> {
+    let restart_visible = board.chip.is_none();
+    let result = hil::fault_check(&mut *dev, Duration::from_secs(60), restart_visible);
+    for line in dev.stop() {
+        println!("device: {line}");
+    }
+    let seen = result?;
+    println!("hil --fault: {seen}");
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_to;
+
+    #[test]
+    fn to_takes_an_address_with_or_without_port() {
+        assert_eq!(
+            parse_to("192.168.125.4", 3002).unwrap(),
+            "192.168.125.4:3002".parse().unwrap()
+        );
+        assert_eq!(
+            parse_to("192.168.125.4:4000", 3002).unwrap(),
+            "192.168.125.4:4000".parse().unwrap()
+        );
+        assert!(parse_to("robot", 3002).is_err());
+    }
+}

@@ -1,0 +1,385 @@
+//! What `cargo demo` and `cargo hil` share: a running device with a log
+//! ([`Device`]: the QEMU board, or a NUCLEO through probe-rs), driven by the
+//! robot simulator after a warm-up, judged the same way with the same exit
+//! statuses.
+//!
+//! The warm-up: QEMU translates the firmware's machine code to the host's
+//! the first time it runs, so the first messages take tens of milliseconds
+//! and the replies of the next few dozen queue behind them. On a busy
+//! two-core machine that backlog alone can exceed `MaxLost` late replies in
+//! a row. A real MCU has no such start-up, but the same warm-up also lets
+//! its ARP and the controller's supervision settle; its figures are
+//! printed, its timing is not judged, and the counted run continues its Id
+//! sequence. A wrong or malformed reply fails in either.
+
+use crate::qemu::Qemu;
+use crate::robot::args::{plot_path, Properties};
+use crate::robot::report::Summary;
+use crate::robot::{run, RobotOptions};
+use std::io::{IsTerminal, Write};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// The simulator's side of a run (`cargo demo` and `cargo hil` take the
+/// same options).
+#[derive(clap::Args, Clone, Debug)]
+pub struct RunArgs {
+    /// Over a TCP channel: the manual's device with Protocol="Tcp"
+    /// (host-tests/gsi/anydevice-tcp) instead of the configured one.
+    #[arg(long)]
+    pub tcp: bool,
+    /// Robot messages to send, one per 4 ms cycle.
+    #[arg(long, default_value_t = 2500, value_parser = clap::value_parser!(u64).range(1..))]
+    pub cycles: u64,
+    /// Robot cycles sent before the counted run (their figures are
+    /// printed, their timing is not judged; 0: none).
+    #[arg(long, default_value_t = 250)]
+    pub warm_up: u64,
+    /// Write the simulator's latency plot (.svg or .png) here.
+    #[arg(long, value_parser = plot_path)]
+    pub plot: Option<PathBuf>,
+    /// S5: after the warm-up, send the attack of "Fragments never lock the
+    /// controller out" (two 9,000-byte datagrams from another port of this
+    /// computer, the controller's address), then fail unless every robot
+    /// message of the counted run is answered (build with a configuration
+    /// whose robot messages are fragmented: host-tests/gsi/fragmented).
+    #[arg(long)]
+    pub oversize_attack: bool,
+    #[command(flatten)]
+    pub properties: Properties,
+}
+
+/// Exit status when the only failure was lateness: every reply came and
+/// was right, but `MaxLost` of them in a row came later than one cycle
+/// ([`Summary::late_only`]). Apart from 1 (anything else) so that a script
+/// on a shared machine can tell a host stall from a wrong firmware; 2 is
+/// clap's, for bad arguments.
+pub const LATE_ONLY: u8 = 3;
+
+/// Why a run failed, and whether it was lateness alone.
+#[derive(Debug)]
+pub struct Failure {
+    /// What went wrong, for the person at the terminal.
+    pub reason: String,
+    /// Every reply came and was right; only their timing failed.
+    pub late_only: bool,
+}
+
+impl From<String> for Failure {
+    fn from(reason: String) -> Self {
+        Failure {
+            reason,
+            late_only: false,
+        }
+    }
+}
+
+impl Failure {
+    /// Prints the failure and gives the exit status ([`LATE_ONLY`] or 1).
+    pub fn report(&self) -> std::process::ExitCode {
+        eprintln!("error: {}", self.reason);
+        if self.late_only {
+            eprintln!("every reply was right; only their timing failed (exit status {LATE_ONLY})");
+            std::process::ExitCode::from(LATE_ONLY)
+        } else {
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+/// Whether a log line is shown as it comes: everything but the bench
+/// build's record per message (`bench bytes=…`), which the tools read from
+/// the whole log and `cargo hil` summarises.
+pub fn shown_live(line: &str) -> bool {
+    !line.contains("] bench ")
+}
+
+/// A running firmware and its log, as the run needs it.
+pub trait Device {
+    /// Waits until a logged line contains `needle`.
+    fn wait_for(&mut self, needle: &str, timeout: Duration) -> Result<(), String>;
+    /// Lines logged since the last call ([`shown_live`] ones).
+    fn take_new(&self) -> Vec<String>;
+    /// Where new lines arrive, for the simulator to show them live.
+    fn live_lines(&self) -> Arc<Mutex<Vec<String>>>;
+    /// Every line logged so far.
+    fn log(&self) -> Vec<String>;
+    /// Why the firmware stopped, if it has.
+    fn stopped(&mut self) -> Option<String>;
+    /// Stops it and returns the whole log.
+    fn stop(self: Box<Self>) -> Vec<String>;
+}
+
+impl Device for Qemu {
+    fn wait_for(&mut self, needle: &str, timeout: Duration) -> Result<(), String> {
+        Qemu::wait_for(self, needle, timeout)
+    }
+    fn take_new(&self) -> Vec<String> {
+        Qemu::take_new(self)
+    }
+    fn live_lines(&self) -> Arc<Mutex<Vec<String>>> {
+        self.new_lines.clone()
+    }
+    fn log(&self) -> Vec<String> {
+        Qemu::log(self)
+    }
+    fn stopped(&mut self) -> Option<String> {
+        self.exited().map(|status| format!("QEMU {status}"))
+    }
+    fn stop(self: Box<Self>) -> Vec<String> {
+        Qemu::stop(*self)
+    }
+}
+
+/// The configuration a run builds and drives.
+#[derive(Clone, Debug)]
+pub struct Setup {
+    /// The GSI folder the simulator reads.
+    pub gsi: PathBuf,
+    /// `RRI_DEVICE`, when the folder has several devices.
+    pub device_name: Option<String>,
+    /// The GSI folder to build the firmware from, when not the caller's
+    /// environment (`--tcp`).
+    pub build_gsi: Option<PathBuf>,
+    /// The device the firmware is built for.
+    pub device: gsi_config::Device,
+}
+
+impl Setup {
+    /// The configured device (`RRI_GSI_DIR` / `RRI_DEVICE`), or with
+    /// `tcp` the manual's device over TCP.
+    pub fn new(tcp: bool) -> Result<Setup, String> {
+        let (gsi, device_name, build_gsi) = if tcp {
+            let dir = crate::workspace().join("host-tests/gsi/anydevice-tcp/GSI");
+            (dir.clone(), None, Some(dir))
+        } else {
+            let (dir, name) = crate::built_gsi();
+            (dir, name, None)
+        };
+        let device = gsi_config::load(&gsi, device_name.as_deref())
+            .map_err(|f| f.to_string())?
+            .device;
+        Ok(Setup {
+            gsi,
+            device_name,
+            build_gsi,
+            device,
+        })
+    }
+
+    /// The device's channel on its own network.
+    pub fn channel(&self) -> Result<SocketAddr, String> {
+        let ip: std::net::Ipv4Addr = self.device.network.address.parse().map_err(|_| {
+            format!(
+                "Description.xml's Network Address {} is not an IPv4 address",
+                self.device.network.address
+            )
+        })?;
+        Ok((ip, self.device.channel.port).into())
+    }
+}
+
+/// What the QEMU board logs when it is ready: its banner, and for UDP the
+/// first state change (a TCP device waits for its connection instead).
+pub fn qemu_ready(setup: &Setup) -> Vec<(&'static str, Duration)> {
+    let mut ready = vec![("rri-sensor", Duration::from_secs(20))];
+    if setup.device.channel.protocol != gsi_config::Protocol::Tcp {
+        ready.push(("state CONNECTED", Duration::from_secs(10)));
+    }
+    ready
+}
+
+/// What a finished run leaves: the simulator's summary, the device's whole
+/// log, and why the firmware stopped if it did.
+pub struct Ran {
+    /// The simulator's summary of the counted run.
+    pub summary: Summary,
+    /// Every line the device logged.
+    pub log: Vec<String>,
+    /// Why the firmware stopped, if it did.
+    pub stopped: Option<String>,
+    /// `--oversize-attack` was sent: every robot message must be answered.
+    pub attacked: bool,
+}
+
+/// Waits for the device to start (its banner, then `ready`, each within
+/// its timeout), warms it up, drives it for `args.cycles`, takes one more
+/// counter line and stops it. Prints the device's log as it comes
+/// (prefixed `device:`) and the simulator's summary.
+pub fn drive(
+    mut dev: Box<dyn Device>,
+    setup: &Setup,
+    args: &RunArgs,
+    to: SocketAddr,
+    ready: &[(&str, Duration)],
+    out: &mut dyn Write,
+) -> Result<Ran, Failure> {
+    for (needle, timeout) in ready {
+        if let Err(e) = dev.wait_for(needle, *timeout) {
+            for line in dev.take_new() {
+                println!("device: {line}");
+            }
+            return Err(e.into());
+        }
+    }
+    if setup.device.channel.protocol == gsi_config::Protocol::Tcp {
+        // The TCP task listens right after the banner; give it a moment.
+        std::thread::sleep(Duration::from_millis(500));
+    }
+    for line in dev.take_new() {
+        println!("device: {line}");
+    }
+    let mut opts = RobotOptions::new(setup.gsi.clone(), to);
+    opts.device = setup.device_name.clone();
+    opts.cycles = args.cycles;
+    // The transport the configuration says (the TCP demo's is TCP).
+    opts.tcp = setup.device.channel.protocol == gsi_config::Protocol::Tcp;
+    args.properties.apply(&mut opts);
+    opts.plot = args.plot.clone();
+    opts.progress = std::io::stderr().is_terminal();
+    opts.device_log = Some(dev.live_lines());
+    if args.warm_up > 0 {
+        opts.first_id = warm_up(&opts, &setup.device, args.warm_up)?;
+    }
+    if args.oversize_attack {
+        oversize_attack(to)?;
+    }
+    match args.properties.send.as_slice() {
+        [] => println!("== robot simulator: {} cycles every 4 ms", args.cycles),
+        sends => println!(
+            "== robot simulator: {} cycles, sending {}",
+            args.cycles,
+            sends
+                .iter()
+                .map(|(n, ms)| format!("{n} every {ms} ms"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+    let result = run(&opts, &setup.device, out);
+    // One more counter line from the device.
+    std::thread::sleep(Duration::from_millis(1100));
+    let stopped = dev.stopped();
+    let rest = dev.take_new();
+    let log = dev.stop();
+    for line in rest {
+        println!("device: {line}");
+    }
+    let (summary, _) = result?;
+    let _ = summary.print(out);
+    let _ = out.flush();
+    Ok(Ran {
+        summary,
+        log,
+        stopped,
+        attacked: args.oversize_attack,
+    })
+}
+
+/// The run's verdict, as `cargo demo` gives it: the firmware still running,
+/// no panic or fault in its log, every reply right and on time. `name`
+/// starts the success line.
+pub fn verdict(name: &str, ran: &Ran) -> Result<(), Failure> {
+    if let Some(why) = &ran.stopped {
+        return Err(format!("the firmware stopped during the run ({why})").into());
+    }
+    if let Some(bad) = ran
+        .log
+        .iter()
+        .find(|l| l.contains("panic") || l.contains("HardFault"))
+    {
+        return Err(format!("the firmware failed: {bad}").into());
+    }
+    let banners = ran.log.iter().filter(|l| l.contains("rri-sensor ")).count();
+    if banners > 1 {
+        return Err(format!(
+            "the firmware started {banners} times: it reset during the run (watchdog?)"
+        )
+        .into());
+    }
+    if ran.attacked {
+        if let Some(c) = ran
+            .log
+            .iter()
+            .rev()
+            .find_map(|l| crate::counters::DeviceCounters::parse(l))
+        {
+            let f = c.fragments;
+            println!(
+                "device fragments: {} in, {} reassembled, {} oversize dropped, {} sets spoiled",
+                f.fragments, f.reassembled, f.oversize, f.spoiled
+            );
+        }
+        if ran.summary.lost > 0 {
+            return Err(format!(
+                "S5: {} of {} robot messages not answered after two 9,000-byte datagrams",
+                ran.summary.lost, ran.summary.sent
+            )
+            .into());
+        }
+    }
+    match ran.summary.failure() {
+        None => {
+            println!(
+                "{name}: every reply was right ({} answered)",
+                ran.summary.answered
+            );
+            Ok(())
+        }
+        Some(reason) => Err(Failure {
+            reason,
+            late_only: ran.summary.late_only(),
+        }),
+    }
+}
+
+/// The attack of S5's issue: two 9,000-byte datagrams to the device's
+/// channel from another port of this computer. Through QEMU's user
+/// networking every host sender shows as one address, so this is another
+/// port of the controller's address; with smoltcp's own reassembly every
+/// fragmented robot message after it was dropped for 60 s.
+fn oversize_attack(to: SocketAddr) -> Result<(), String> {
+    let attacker = std::net::UdpSocket::bind(("0.0.0.0", 0)).map_err(|e| e.to_string())?;
+    for _ in 0..2 {
+        attacker
+            .send_to(&[b'<'; 9000], to)
+            .map_err(|e| format!("S5 attack to {to}: {e}"))?;
+    }
+    std::thread::sleep(Duration::from_millis(50));
+    println!(
+        "== S5: two 9,000-byte datagrams sent to {to} from another port of the controller's address"
+    );
+    Ok(())
+}
+
+/// Sends `cycles` robot cycles with `opts` and prints one line of figures;
+/// returns the first Id of the counted run. Fails on no reply at all, or on
+/// a wrong or malformed reply, never on timing.
+fn warm_up(opts: &RobotOptions, device: &gsi_config::Device, cycles: u64) -> Result<u32, String> {
+    let mut w = opts.clone();
+    w.cycles = cycles;
+    w.plot = None;
+    w.progress = false;
+    w.device_log = None;
+    // Its state transitions are the counted run's to show.
+    let mut quiet = Vec::new();
+    let (s, _) = run(&w, device, &mut quiet)?;
+    println!(
+        "== warm-up (timing not judged; QEMU translates the firmware's code on first use): sent {} answered {} late {} latency us median {} max {}",
+        s.sent, s.answered, s.late, s.latency_us.median, s.latency_us.max
+    );
+    if s.answered == 0 {
+        return Err(format!(
+            "warm-up: no reply from {} (is this computer on the device's network, and the channel's port open?)",
+            opts.to
+        ));
+    }
+    if s.wrong_id > 0 || s.malformed > 0 {
+        let why = s.failure().unwrap_or_else(|| "a wrong reply".into());
+        return Err(format!("warm-up: {why}"));
+    }
+    let sent = u32::try_from(s.sent).map_err(|_| "warm-up: too many messages")?;
+    Ok(w.first_id.wrapping_add(sent))
+}
