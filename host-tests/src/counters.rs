@@ -148,7 +148,11 @@ impl LossSplit {
     /// counters at the end of the run (every robot message counted since
     /// boot: nothing else may talk to the device as the controller first).
     pub fn of(sent: u64, answered: u64, d: &DeviceCounters) -> LossSplit {
-        let reached = d.fragments.controller_in;
+        // A robot message the engine answered reached it, though the guard
+        // counts a controller's datagram only once the cycle has told it
+        // the controller's port: the first from a new port (a controller
+        // that reconnected) is answered without counting in `controller-in`.
+        let reached = d.fragments.controller_in.max(d.answered);
         let reassembly = d.fragments.controller_dropped;
         LossSplit {
             sent,

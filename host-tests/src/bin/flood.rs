@@ -24,10 +24,12 @@
 //! always fragmented, `host-tests/gsi/fragmented`): the two
 //! 9,000-byte datagrams before the robot starts, then both flooders send
 //! fragment attacks instead of the flood ([`host_tests::attack`]: oversize
-//! sets and incomplete ones, crafted through a raw socket). Fails when a
-//! robot message is lost in the firmware (reassembly, socket queue,
-//! engine) or more than 1 % never reach it whole (the emulated NIC's own
-//! losses, a few per thousand with no attack at all).
+//! sets and incomplete ones, crafted through a raw socket). Fails unless
+//! every robot message is answered. When the only ones lost never reached
+//! the firmware whole (the emulated NIC in real time on a busy host: a few
+//! per thousand with no attack at all) the exit status is 3, as `cargo
+//! demo`'s for lateness alone, so that CI can tell the host's stall from
+//! the firmware's fault and run it once more.
 
 use clap::Parser;
 use host_tests::attack;
@@ -40,6 +42,12 @@ use std::process::{Command, ExitCode};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
+
+/// Exit status of `--fragments` when every robot message the firmware got
+/// whole was answered and the only ones lost were lost before it (the
+/// emulated NIC, the host): [`host_tests::demo::LATE_ONLY`]'s value, which
+/// CI's retry looks for.
+const BEFORE_FIRMWARE_ONLY: u8 = host_tests::demo::LATE_ONLY;
 
 /// Set (to the namespace's name) in the copy of this tool that runs inside.
 const INSIDE: &str = "RRI_FLOOD_NETNS";
@@ -65,6 +73,11 @@ struct Args {
     /// with a configuration whose robot messages are fragmented).
     #[arg(long)]
     fragments: bool,
+    /// Robot cycles sent before the counted run, with no flood, so that
+    /// QEMU has translated the firmware's code (as `cargo demo`'s warm-up;
+    /// their figures are printed, their losses not counted; 0: none).
+    #[arg(long, default_value_t = 0)]
+    warm_up: u64,
 }
 
 fn main() -> ExitCode {
@@ -74,8 +87,8 @@ fn main() -> ExitCode {
         Err(_) => outside(),
     };
     match result {
-        Ok(true) => ExitCode::SUCCESS,
-        Ok(false) => ExitCode::FAILURE,
+        Ok(0) => ExitCode::SUCCESS,
+        Ok(status) => ExitCode::from(status),
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
@@ -127,7 +140,7 @@ fn addresses() -> Result<(gsi_config::Device, [u8; 4], Ipv4Addr, Ipv4Addr), Stri
     Ok((device, [a, b, c, d], controller, stranger))
 }
 
-fn outside() -> Result<bool, String> {
+fn outside() -> Result<u8, String> {
     let mut out = std::io::stdout();
     qemu::ensure_qemu(&mut out)?;
     let (_, _, controller, stranger) = addresses()?;
@@ -163,10 +176,14 @@ fn outside() -> Result<bool, String> {
         .env(ELF, &elf)
         .status()
         .map_err(|e| format!("cannot run inside {}: {e}", ns.0))?;
-    Ok(status.success())
+    Ok(match status.code() {
+        Some(0) => 0,
+        Some(c) if c == i32::from(BEFORE_FIRMWARE_ONLY) => BEFORE_FIRMWARE_ONLY,
+        _ => 1,
+    })
 }
 
-fn inside(args: &Args) -> Result<bool, String> {
+fn inside(args: &Args) -> Result<u8, String> {
     let (device, [a, b, c, d], controller, stranger) = addresses()?;
     let elf = std::env::var(ELF).map_err(|_| format!("{ELF} is not set"))?;
     let boot = Boot {
@@ -199,19 +216,36 @@ fn inside(args: &Args) -> Result<bool, String> {
         },
         args.flood_us
     );
-    if args.fragments {
-        // The attack, before the robot speaks: two 9,000-byte
-        // datagrams from a second port of the controller's address (with
-        // smoltcp's own reassembly, every fragmented robot message after
-        // them was dropped for 60 s).
-        let to = SocketAddrV4::new(Ipv4Addr::new(a, b, c, d), device.channel.port);
-        attack::opening(controller, to)?;
-        std::thread::sleep(Duration::from_millis(50));
-        println!("  sent the issue's two 9,000-byte datagrams from {controller} before the robot's first message");
-    }
     let (gsi, name) = host_tests::built_gsi();
     let mut opts = RobotOptions::new(gsi, to);
     opts.device = name;
+    // The warm-up makes the robot the peer; the counted run continues its
+    // Ids. The device's counters after it are taken off the counted run's
+    // split.
+    let mut warm = DeviceCounters::default();
+    if args.warm_up > 0 {
+        let mut w = opts.clone();
+        w.cycles = args.warm_up;
+        let (ws, _) = run(&w, &device, &mut std::io::sink())?;
+        let start = board.lines();
+        warm = DeviceCounters::fresh(&board, start, Duration::from_secs(5))?;
+        println!(
+            "  warm-up, no flood (QEMU translates the firmware's code on first use; not counted): sent {} answered {}",
+            ws.sent, ws.answered
+        );
+        let sent = u32::try_from(ws.sent).map_err(|_| "warm-up: too many messages")?;
+        opts.first_id = w.first_id.wrapping_add(sent);
+    }
+    if args.fragments {
+        // The attack, before the robot's (counted) messages: two
+        // 9,000-byte datagrams from a second port of the controller's
+        // address (with smoltcp's own reassembly, every fragmented robot
+        // message after them was dropped for 60 s).
+        let to = SocketAddrV4::new(Ipv4Addr::new(a, b, c, d), device.channel.port);
+        attack::opening(controller, to)?;
+        std::thread::sleep(Duration::from_millis(50));
+        println!("  sent the issue's two 9,000-byte datagrams from {controller} before the robot's counted messages");
+    }
     opts.cycles = args.cycles;
     opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let robot = {
@@ -308,7 +342,20 @@ fn inside(args: &Args) -> Result<bool, String> {
             n.rx_frames, n.rx_dropped, n.status_full, n.fifo_max
         );
     }
-    let split = LossSplit::of(s.sent, s.answered, &counters);
+    let split = {
+        // The counted run's: its own robot figures against the device's
+        // counters less those logged after the warm-up had ended.
+        let w = &warm;
+        let mut since = counters;
+        since.answered -= w.answered.min(since.answered);
+        since.fragments.controller_in -=
+            w.fragments.controller_in.min(since.fragments.controller_in);
+        since.fragments.controller_dropped -= w
+            .fragments
+            .controller_dropped
+            .min(since.fragments.controller_dropped);
+        LossSplit::of(s.sent, s.answered, &since)
+    };
     println!("  robot messages {}", split.line());
     let mut ok = true;
     let mut fail = |why: String| {
@@ -334,20 +381,12 @@ fn inside(args: &Args) -> Result<bool, String> {
         fail("the losses do not add up to what the robot lost".into());
     }
     if args.fragments {
-        // S5: what the firmware got is answered. The emulated LAN9118 over
-        // a tap loses a few robot datagrams per thousand before the
-        // firmware sees them with no attack at all (see the README);
-        // that part is reported and bounded, not the firmware's to answer.
+        // S5: every robot message answered. Lost in the firmware
+        // (reassembly, socket queue, engine) or on the way back: its fault.
         if split.reassembly + split.engine + split.way_back > 0 {
             fail(format!(
                 "S5: robot messages lost in the firmware under fragment attacks: {}",
                 split.line()
-            ));
-        }
-        if split.nic * 100 > split.sent {
-            fail(format!(
-                "S5: more than 1 % of the robot messages never reached the firmware whole ({})",
-                split.nic
             ));
         }
     }
@@ -357,6 +396,18 @@ fn inside(args: &Args) -> Result<bool, String> {
     if let Some(p) = log.iter().find(|l| l.contains("panic")) {
         fail(format!("the firmware panicked: {p}"));
     }
+    // Lost before the firmware had them whole: the emulated LAN9118 over
+    // a tap, in real time on a shared host, loses a few per thousand with
+    // no attack at all (see the README). Not the firmware's to answer, but
+    // S5 wants every robot message answered: a failure of its own status.
+    let before_only = args.fragments && ok && split.nic > 0;
+    if before_only {
+        println!(
+            "FAIL: S5: {} robot messages never reached the firmware whole (emulated NIC, host); every one it got was answered (exit status {BEFORE_FIRMWARE_ONLY})",
+            split.nic
+        );
+        return Ok(BEFORE_FIRMWARE_ONLY);
+    }
     println!("{}", if ok { "flood: PASS" } else { "flood: FAIL" });
-    Ok(ok)
+    Ok(if ok { 0 } else { 1 })
 }
