@@ -248,4 +248,15 @@ mod counter_tests {
         assert!(s.adds_up());
         assert_eq!(s.lost(), 15);
     }
+
+    #[test]
+    fn an_answered_message_reached_the_engine_though_the_guard_did_not_count_it() {
+        // The first datagram from a controller's new port is answered
+        // before the guard knows the port: controller-in 9, answered 10.
+        let mut c = DeviceCounters::parse(LINE).unwrap();
+        c.answered = 10;
+        let s = LossSplit::of(12, 10, &c);
+        assert_eq!((s.nic, s.reassembly, s.engine, s.way_back), (1, 1, 0, 0));
+        assert!(s.adds_up());
+    }
 }
