@@ -10,7 +10,7 @@
 //! controller's own) then stop every robot message longer than a frame.
 //!
 //! So the firmware reassembles IPv4 itself, in front of the stack
-//! ([`Reassembler`], run by [`guard::FragmentGuard`], a driver wrapper
+//! ([`Reassembler`], run by `guard::FragmentGuard` (feature `net`), a driver wrapper
 //! like smoltcp's `phy` wrappers: it sees every frame any board's driver
 //! hands over), and hands smoltcp whole datagrams only; smoltcp's own
 //! reassembly never sees a fragment (its buffers are the smallest its
