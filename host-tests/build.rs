@@ -10,6 +10,7 @@ const LAYOUTS: &[(&str, &str, Option<&str>)] = &[
     ("udptest", "../shared/rri/real-world/GSI", Some("UdpTest")),
     ("every_type", "host-tests/gsi/every-type/GSI", None),
     ("several", "host-tests/gsi/several-properties/GSI", None),
+    ("fragmented", "host-tests/gsi/fragmented/GSI", None),
 ];
 
 fn main() {

@@ -47,6 +47,7 @@ pub mod bench;
 pub mod codec;
 pub mod demo;
 pub mod engine;
+pub mod fragments;
 pub mod layout;
 #[cfg(feature = "net")]
 pub mod net;

@@ -5,6 +5,7 @@
 //! chip, and the host tests run this very code over an in-memory Ethernet.
 
 use crate::engine::{Application, Clock, Endpoint, Engine, Instant, Outcome};
+use crate::fragments::{Controller, Link};
 use crate::properties::{DeviceSet, RobotSet};
 use crate::tcp::{Framer, StallGuard};
 use embassy_futures::select::{select, Either};
@@ -91,20 +92,16 @@ impl<const RX: usize, const TX: usize> Default for UdpBuffers<RX, TX> {
 
 impl<const RX: usize, const TX: usize> UdpBuffers<RX, TX> {
     /// All buffers zeroed; `const`, so it can initialise a `static`. Does
-    /// not compile when the layout's longest messages do not fit smoltcp's
-    /// IPv4 reassembly or fragmentation buffer (then raise
-    /// `SMOLTCP_REASSEMBLY_BUFFER_SIZE` / `SMOLTCP_FRAGMENTATION_BUFFER_SIZE`).
+    /// not compile when the layout's longest reply does not fit smoltcp's
+    /// IPv4 fragmentation buffer (then raise
+    /// `SMOLTCP_FRAGMENTATION_BUFFER_SIZE`). Robot messages longer than a
+    /// frame are reassembled in front of the stack, in buffers sized by the
+    /// layout ([`crate::fragments`]).
     pub const fn new() -> Self {
-        // A robot datagram longer than one Ethernet frame arrives in IPv4
-        // fragments and a long reply leaves in fragments: smoltcp's buffers
-        // for both (cargo features of `smoltcp` in firmware/Cargo.toml, or
-        // SMOLTCP_REASSEMBLY_BUFFER_SIZE / SMOLTCP_FRAGMENTATION_BUFFER_SIZE
-        // at build time) must hold the layout's longest messages.
+        // A long reply leaves in IPv4 fragments: smoltcp's buffer for them
+        // (a cargo feature of `smoltcp` in firmware/Cargo.toml, or
+        // SMOLTCP_FRAGMENTATION_BUFFER_SIZE at build time) must hold it.
         const {
-            assert!(
-                RX + 8 <= smoltcp::config::REASSEMBLY_BUFFER_SIZE,
-                "the layout's MAX_RECEIVE_LEN does not fit smoltcp's IPv4 reassembly buffer: raise SMOLTCP_REASSEMBLY_BUFFER_SIZE"
-            );
             assert!(
                 TX + IPV4_UDP_HEADERS <= smoltcp::config::FRAGMENTATION_BUFFER_SIZE,
                 "the layout's MAX_SEND_LEN does not fit smoltcp's IPv4 fragmentation buffer: raise SMOLTCP_FRAGMENTATION_BUFFER_SIZE"
@@ -168,6 +165,17 @@ pub struct Cycle<'c, R: RobotSet, D: DeviceSet, A, C, M> {
     pub clock: &'c C,
     /// Told of every turn of the loop, after the reply.
     pub monitor: &'c mut M,
+    /// Shared with the fragment guard in front of the board's driver: the
+    /// cycle tells it who the controller is and copies its counters into
+    /// the engine's (S5, [`crate::fragments`]).
+    pub link: &'c Link,
+}
+
+/// After each turn: the guard learns who the controller is now, the
+/// engine's counters take the guard's.
+fn exchange<R: RobotSet, D: DeviceSet>(link: &Link, engine: &mut Engine<R, D>) {
+    link.set_controller(Controller::of(engine.peer(), engine.config().controller));
+    engine.set_fragment_stats(link.stats());
 }
 
 impl<R, D, A, C, M> Cycle<'_, R, D, A, C, M>
@@ -191,6 +199,7 @@ where
             app,
             clock,
             monitor,
+            link,
         } = self;
         let UdpBuffers {
             rx,
@@ -236,6 +245,7 @@ where
                     if let Outcome::Reply { to, len } = outcome {
                         send_datagram(&socket, engine, reply, to, len).await;
                     }
+                    exchange(link, engine);
                     monitor.message(engine, len, &outcome, (before, after));
                 }
                 Either::First(Err(RecvError::Truncated)) => engine.datagram_too_long(),
@@ -243,6 +253,7 @@ where
                     if let Some((to, len)) = engine.poll(app, clock, reply) {
                         send_datagram(&socket, engine, reply, to, len).await;
                     }
+                    exchange(link, engine);
                     monitor.polled(engine);
                 }
             }
@@ -268,6 +279,7 @@ where
             app,
             clock,
             monitor,
+            link,
         } = self;
         let TcpBuffers {
             rx,
@@ -349,6 +361,7 @@ where
                                     break 'connection;
                                 }
                             }
+                            exchange(link, engine);
                             monitor.message(engine, bytes, &outcome, (before, after));
                         }
                         guard.received(received, completed, framer.pending());
@@ -359,6 +372,7 @@ where
                                 break 'connection;
                             }
                         }
+                        exchange(link, engine);
                         monitor.polled(engine);
                     }
                 }

@@ -11,7 +11,7 @@
 //! each). Each board is one module behind one cargo feature and exports the
 //! same names (see [`board`]): `init()`, `Board`, `Net`, `Leds`, `Inputs`,
 //! `Watchdog`, `start_urgent_executor()`, `run_background()`, `cycle_counter()`,
-//! `exit()`.
+//! `nic_counters()`, `exit()`.
 //! Chip-only dependencies are gated to `target_os = "none"`, so the host
 //! build (`cargo test`) never compiles them; the LAN9118 and LAN8742A
 //! drivers are plain logic over a register trait, and the MPU encoding and
@@ -24,6 +24,23 @@ pub mod lan9118;
 pub mod mac;
 pub mod mpu;
 pub mod rx_ring;
+
+/// What the network chip itself counted on the receive side, for the
+/// firmware's counter line: frames it lost before the driver could take
+/// them are invisible everywhere else. Each board's `nic_counters()`
+/// returns them, or `None` where the board does not read them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NicCounters {
+    /// Frames the driver took from the chip and handed to the stack.
+    pub rx_frames: u32,
+    /// Frames the chip dropped (its own counter; LAN9118: `RX_DROP`).
+    pub rx_dropped: u32,
+    /// Times the chip reported its receive status FIFO full (LAN9118:
+    /// `INT_STS.RSFF`, seen by the interrupt handler).
+    pub status_full: u32,
+    /// The most bytes the receive data FIFO held when the driver looked.
+    pub fifo_max: u32,
+}
 
 /// Stack painting and its high-water mark (every board).
 #[cfg(all(any(feature = "mps2-an500", feature = "stm32"), target_os = "none"))]

@@ -199,6 +199,12 @@ pub fn cycle_counter() -> u32 {
     time::raw32()
 }
 
+/// The LAN9118's receive counters (see [`lan9118::nic_counters`]; QEMU's
+/// model never counts a dropped frame: its `RX_DROP` reads 0).
+pub fn nic_counters() -> Option<crate::NicCounters> {
+    Some(lan9118::nic_counters(&Mmio))
+}
+
 /// `embassy-time` over TIMER0 (free-running) and SysTick (queue ticks).
 mod time {
     use super::*;

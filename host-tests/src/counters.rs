@@ -5,7 +5,8 @@
 use crate::qemu::Qemu;
 use std::time::Duration;
 
-/// The device's counters, from its once-a-second `counters:` log line.
+/// The device's counters, from its once-a-second `counters:` log line:
+/// the engine's, the fragment guard's (S5) and the network chip's.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct DeviceCounters {
     pub received: u64,
@@ -14,16 +15,60 @@ pub struct DeviceCounters {
     pub invalid: u64,
     pub throttled: u64,
     pub decode: u64,
+    pub fragments: Fragments,
+    /// The network chip's receive counters; `None` where the board does
+    /// not read them (`nic n/a`).
+    pub nic: Option<Nic>,
+}
+
+/// The fragment guard's counters (`rri_firmware::fragments::FragmentStats`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Fragments {
+    pub fragments: u64,
+    pub reassembled: u64,
+    pub oversize: u64,
+    pub unwanted: u64,
+    pub malformed: u64,
+    pub no_buffer: u64,
+    pub timed_out: u64,
+    pub evicted: u64,
+    pub spoiled: u64,
+    /// The controller's datagrams handed to the stack whole.
+    pub controller_in: u64,
+    /// The controller's sets given up incomplete (timed out or superseded:
+    /// a fragment never came).
+    pub controller_incomplete: u64,
+    /// The controller's sets lost in reassembly itself.
+    pub controller_dropped: u64,
+}
+
+/// The network chip's receive counters (`hal_board::NicCounters`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Nic {
+    pub rx_frames: u64,
+    pub rx_dropped: u64,
+    pub status_full: u64,
+    pub fifo_max: u64,
 }
 
 impl DeviceCounters {
-    /// `[…] counters: received R answered A dropped foreign F invalid-source I throttled T decode D | …`.
+    /// `[…] counters: received R answered A dropped foreign F invalid-source I throttled T decode D | … | fragments … | controller-in … | nic read rx …`.
     pub fn parse(line: &str) -> Option<DeviceCounters> {
         let (_, rest) = line.split_once("] counters: ")?;
         let words: Vec<&str> = rest.split_whitespace().collect();
-        let after = |key: &str| -> Option<u64> {
+        let word = |key: &str| -> Option<&str> {
             let i = words.iter().position(|w| *w == key)?;
-            words.get(i + 1)?.parse().ok()
+            words.get(i + 1).copied()
+        };
+        let after = |key: &str| -> Option<u64> { word(key)?.parse().ok() };
+        let nic = match word("nic")? {
+            "read" => Some(Nic {
+                rx_frames: after("rx")?,
+                rx_dropped: after("rx-dropped")?,
+                status_full: after("status-full")?,
+                fifo_max: after("fifo-max")?,
+            }),
+            _ => None,
         };
         Some(DeviceCounters {
             received: after("received")?,
@@ -32,6 +77,21 @@ impl DeviceCounters {
             invalid: after("invalid-source")?,
             throttled: after("throttled")?,
             decode: after("decode")?,
+            fragments: Fragments {
+                fragments: after("fragments")?,
+                reassembled: after("reassembled")?,
+                oversize: after("oversize")?,
+                unwanted: after("unwanted")?,
+                malformed: after("malformed")?,
+                no_buffer: after("no-buffer")?,
+                timed_out: after("timed-out")?,
+                evicted: after("evicted")?,
+                spoiled: after("spoiled")?,
+                controller_in: after("controller-in")?,
+                controller_incomplete: after("controller-incomplete")?,
+                controller_dropped: after("controller-dropped")?,
+            },
+            nic,
         })
     }
 
@@ -60,13 +120,83 @@ impl DeviceCounters {
     }
 }
 
+/// Where a run's lost robot messages went, from the robot's figures and
+/// the device's counters (a flood run's losses, split): robot messages
+/// the device never got whole (in the emulated NIC or before it, a
+/// fragment of them included), those lost in reassembly itself, those
+/// that reached the stack whole but were not answered (the UDP socket's
+/// queue or the engine), and answers that never reached the robot.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LossSplit {
+    pub sent: u64,
+    pub answered: u64,
+    /// Never reached the firmware whole: sent − reached the stack −
+    /// dropped in reassembly.
+    pub nic: u64,
+    /// The controller's sets the fragment guard dropped (spoiled or
+    /// refused a buffer).
+    pub reassembly: u64,
+    /// Reached the stack whole, not answered: the socket's queue or the
+    /// engine.
+    pub engine: u64,
+    /// Answered by the device, never seen by the robot.
+    pub way_back: u64,
+}
+
+impl LossSplit {
+    /// `sent` and `answered` as the robot counted them, the device's
+    /// counters at the end of the run (every robot message counted since
+    /// boot: nothing else may talk to the device as the controller first).
+    pub fn of(sent: u64, answered: u64, d: &DeviceCounters) -> LossSplit {
+        // A robot message the engine answered reached it, though the guard
+        // counts a controller's datagram only once the cycle has told it
+        // the controller's port: the first from a new port (a controller
+        // that reconnected) is answered without counting in `controller-in`.
+        let reached = d.fragments.controller_in.max(d.answered);
+        let reassembly = d.fragments.controller_dropped;
+        LossSplit {
+            sent,
+            answered,
+            nic: sent.saturating_sub(reached + reassembly),
+            reassembly,
+            engine: reached.saturating_sub(d.answered),
+            way_back: d.answered.saturating_sub(answered),
+        }
+    }
+
+    /// Lost, as the robot saw it.
+    pub fn lost(&self) -> u64 {
+        self.sent - self.answered.min(self.sent)
+    }
+
+    /// The parts account for every loss.
+    pub fn adds_up(&self) -> bool {
+        self.nic + self.reassembly + self.engine + self.way_back == self.lost()
+    }
+
+    /// `lost L: emulated NIC N, reassembly R, engine E, way back W`.
+    pub fn line(&self) -> String {
+        format!(
+            "lost {}: never reached the firmware whole (emulated NIC and before) {}, reassembly {}, engine (socket queue or engine) {}, answers lost on the way back {}{}",
+            self.lost(),
+            self.nic,
+            self.reassembly,
+            self.engine,
+            self.way_back,
+            if self.adds_up() { "" } else { " (DOES NOT ADD UP)" }
+        )
+    }
+}
+
 #[cfg(test)]
 mod counter_tests {
-    use super::DeviceCounters;
+    use super::*;
+
+    const LINE: &str = "[    3.0 INFO ] counters: received 11 answered 6 dropped foreign 1 invalid-source 1 throttled 1 decode 2 | send-errors 0 stalled 0 | lost 0 dup 0 reordered 0 timeouts 0 | latency us max 900 mean 500 | fragments 30 reassembled 8 oversize 10 unwanted 1 malformed 2 no-buffer 3 timed-out 4 evicted 5 spoiled 2 | controller-in 9 controller-incomplete 1 controller-dropped 1 | nic read rx 120 rx-dropped 7 status-full 1 fifo-max 4560";
 
     #[test]
     fn counter_line_parses_and_adds_up() {
-        let c = DeviceCounters::parse("[    3.0 INFO ] counters: received 11 answered 6 dropped foreign 1 invalid-source 1 throttled 1 decode 2 | send-errors 0 stalled 0 | lost 0 dup 0").unwrap();
+        let c = DeviceCounters::parse(LINE).unwrap();
         assert_eq!(
             (
                 c.received,
@@ -80,6 +210,53 @@ mod counter_tests {
         );
         assert!(c.add_up());
         assert!(!DeviceCounters { received: 12, ..c }.add_up());
+        let f = c.fragments;
+        assert_eq!(
+            (f.fragments, f.oversize, f.no_buffer, f.timed_out, f.spoiled),
+            (30, 10, 3, 4, 2)
+        );
+        assert_eq!(
+            (
+                f.controller_in,
+                f.controller_incomplete,
+                f.controller_dropped
+            ),
+            (9, 1, 1)
+        );
+        assert_eq!(
+            c.nic,
+            Some(Nic {
+                rx_frames: 120,
+                rx_dropped: 7,
+                status_full: 1,
+                fifo_max: 4560
+            })
+        );
+        let na = LINE.replace("nic read", "nic n/a");
+        assert_eq!(DeviceCounters::parse(&na).unwrap().nic, None);
         assert_eq!(DeviceCounters::parse("[ 1 INFO ] state CONNECTED"), None);
+    }
+
+    #[test]
+    fn losses_split_three_ways_and_add_up() {
+        let c = DeviceCounters::parse(LINE).unwrap();
+        // 20 sent, 5 answered: 9 reached the stack whole, 1 dropped in
+        // reassembly, so 10 never reached it; the engine answered 6 of the
+        // 9; the robot saw 5 of those 6.
+        let s = LossSplit::of(20, 5, &c);
+        assert_eq!((s.nic, s.reassembly, s.engine, s.way_back), (10, 1, 3, 1));
+        assert!(s.adds_up());
+        assert_eq!(s.lost(), 15);
+    }
+
+    #[test]
+    fn an_answered_message_reached_the_engine_though_the_guard_did_not_count_it() {
+        // The first datagram from a controller's new port is answered
+        // before the guard knows the port: controller-in 9, answered 10.
+        let mut c = DeviceCounters::parse(LINE).unwrap();
+        c.answered = 10;
+        let s = LossSplit::of(12, 10, &c);
+        assert_eq!((s.nic, s.reassembly, s.engine, s.way_back), (1, 1, 0, 0));
+        assert!(s.adds_up());
     }
 }

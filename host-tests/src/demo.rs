@@ -40,6 +40,13 @@ pub struct RunArgs {
     /// Write the simulator's latency plot (.svg or .png) here.
     #[arg(long, value_parser = plot_path)]
     pub plot: Option<PathBuf>,
+    /// S5: after the warm-up, send the attack of "Fragments never lock the
+    /// controller out" (two 9,000-byte datagrams from another port of this
+    /// computer, the controller's address), then fail unless every robot
+    /// message of the counted run is answered (build with a configuration
+    /// whose robot messages are fragmented: host-tests/gsi/fragmented).
+    #[arg(long)]
+    pub oversize_attack: bool,
     #[command(flatten)]
     pub properties: Properties,
 }
@@ -193,6 +200,8 @@ pub struct Ran {
     pub log: Vec<String>,
     /// Why the firmware stopped, if it did.
     pub stopped: Option<String>,
+    /// `--oversize-attack` was sent: every robot message must be answered.
+    pub attacked: bool,
 }
 
 /// Waits for the device to start (its banner, then `ready`, each within
@@ -234,6 +243,9 @@ pub fn drive(
     if args.warm_up > 0 {
         opts.first_id = warm_up(&opts, &setup.device, args.warm_up)?;
     }
+    if args.oversize_attack {
+        oversize_attack(to)?;
+    }
     match args.properties.send.as_slice() {
         [] => println!("== robot simulator: {} cycles every 4 ms", args.cycles),
         sends => println!(
@@ -262,6 +274,7 @@ pub fn drive(
         summary,
         log,
         stopped,
+        attacked: args.oversize_attack,
     })
 }
 
@@ -286,6 +299,27 @@ pub fn verdict(name: &str, ran: &Ran) -> Result<(), Failure> {
         )
         .into());
     }
+    if ran.attacked {
+        if let Some(c) = ran
+            .log
+            .iter()
+            .rev()
+            .find_map(|l| crate::counters::DeviceCounters::parse(l))
+        {
+            let f = c.fragments;
+            println!(
+                "device fragments: {} in, {} reassembled, {} oversize dropped, {} sets spoiled",
+                f.fragments, f.reassembled, f.oversize, f.spoiled
+            );
+        }
+        if ran.summary.lost > 0 {
+            return Err(format!(
+                "S5: {} of {} robot messages not answered after two 9,000-byte datagrams",
+                ran.summary.lost, ran.summary.sent
+            )
+            .into());
+        }
+    }
     match ran.summary.failure() {
         None => {
             println!(
@@ -299,6 +333,25 @@ pub fn verdict(name: &str, ran: &Ran) -> Result<(), Failure> {
             late_only: ran.summary.late_only(),
         }),
     }
+}
+
+/// The attack of S5's issue: two 9,000-byte datagrams to the device's
+/// channel from another port of this computer. Through QEMU's user
+/// networking every host sender shows as one address, so this is another
+/// port of the controller's address; with smoltcp's own reassembly every
+/// fragmented robot message after it was dropped for 60 s.
+fn oversize_attack(to: SocketAddr) -> Result<(), String> {
+    let attacker = std::net::UdpSocket::bind(("0.0.0.0", 0)).map_err(|e| e.to_string())?;
+    for _ in 0..2 {
+        attacker
+            .send_to(&[b'<'; 9000], to)
+            .map_err(|e| format!("S5 attack to {to}: {e}"))?;
+    }
+    std::thread::sleep(Duration::from_millis(50));
+    println!(
+        "== S5: two 9,000-byte datagrams sent to {to} from another port of the controller's address"
+    );
+    Ok(())
 }
 
 /// Sends `cycles` robot cycles with `opts` and prints one line of figures;

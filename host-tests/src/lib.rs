@@ -11,6 +11,7 @@ pub mod layouts {
     include!(concat!(env!("OUT_DIR"), "/layouts.rs"));
 }
 
+pub mod attack;
 pub mod board_map;
 pub mod boards;
 pub mod counters;

@@ -29,6 +29,8 @@ use embassy_time::{Duration, Ticker};
 use hal_board::board;
 use rri_firmware::codec::DecodeErrorKind;
 use rri_firmware::engine::{Clock, Engine, Outcome, SensorState};
+use rri_firmware::fragments::guard::FragmentGuard;
+use rri_firmware::fragments::{self, Channel, Link, Reassembler};
 use rri_firmware::layout::{self, DeviceEngine, DeviceProperties, RobotProperties};
 use rri_firmware::net::{self, EmbassyClock, Monitor};
 use rri_firmware::network;
@@ -55,10 +57,23 @@ const TCP_SOCKET: usize = if layout::MAX_RECEIVE_LEN > layout::MAX_SEND_LEN {
 /// The watchdog resets the board when the cycle stops turning this long.
 const WATCHDOG_MS: u32 = 2_000;
 
+/// The board's driver as the stack sees it: behind the fragment guard
+/// (S5: robot messages longer than a frame are reassembled there, under
+/// rules no other sender can use to lock the controller out) and, in bench
+/// builds, the bench's tap next to the driver (its "frame in" is the
+/// driver's, before the guard).
 #[cfg(feature = "bench")]
-type Nic = rri_firmware::bench::Tap<board::Net>;
+type Driver = rri_firmware::bench::Tap<board::Net>;
 #[cfg(not(feature = "bench"))]
-type Nic = board::Net;
+type Driver = board::Net;
+type Nic = FragmentGuard<'static, Driver, REASSEMBLY_BUF>;
+
+/// One reassembly buffer: the layout's longest robot message with its
+/// headers.
+const REASSEMBLY_BUF: usize = fragments::buffer_len(layout::MAX_RECEIVE_LEN);
+/// Shared by the fragment guard and the cycle: who the controller is, and
+/// the guard's counters.
+static LINK: Link = Link::new();
 
 /// The sensor's history of samples, as its sampler publishes it.
 type Samples = <Active as Sensor>::History;
@@ -117,8 +132,7 @@ fn main() -> ! {
     let nic = rri_firmware::bench::Tap::new(b.net, board::cycle_counter);
     #[cfg(not(feature = "bench"))]
     let nic = b.net;
-    let urgent: SendSpawner = board::start_urgent_executor();
-    spawn!(urgent, network(nic, b.seed, reader));
+    start_network(nic, b.seed, reader);
 
     let (inputs, leds, watchdog) = (b.inputs, b.leds, b.watchdog);
     board::run_background(move |s| {
@@ -129,12 +143,38 @@ fn main() -> ! {
     })
 }
 
+/// Starts the urgent executor with the network task on it. A function of
+/// its own, never inlined: `main` never returns, so whatever its frame
+/// holds stays on the one stack under every interrupt for good, and moving
+/// the driver into the task's storage takes kilobytes (3 KB of `main`'s
+/// frame when it was inlined there).
+#[inline(never)]
+fn start_network(driver: Driver, seed: u64, reader: SampleReader<'static, Samples>) {
+    let urgent: SendSpawner = board::start_urgent_executor();
+    spawn!(urgent, network(driver, seed, reader));
+}
+
 /// Builds the network stack on the urgent executor (the stack is not
 /// `Send`: it must live where it runs) and starts the runner and the cycle.
 #[embassy_executor::task]
-async fn network(nic: Nic, seed: u64, reader: SampleReader<'static, Samples>) {
+async fn network(driver: Driver, seed: u64, reader: SampleReader<'static, Samples>) {
     // SAFETY: this task runs on the urgent executor and spawns onto it.
     let spawner = unsafe { Spawner::for_current_executor() }.await;
+    // Here, not in `main` (see `start_network`): this task's frame is gone
+    // once it ends; in `main` the guard's construction cost 5.7 KB of the
+    // stack for good.
+    // The reassembly buffers are the stack's largest: in place, in `.bss`.
+    static REASSEMBLY: ConstStaticCell<Reassembler<REASSEMBLY_BUF>> =
+        ConstStaticCell::new(Reassembler::new());
+    let nic = FragmentGuard::new(
+        driver,
+        REASSEMBLY.take(),
+        &LINK,
+        Channel {
+            device: ADDRESS,
+            port: layout::CHANNEL_PORT,
+        },
+    );
     let [a, b, c, d] = ADDRESS;
     let config = embassy_net::Config::ipv4_static(StaticConfigV4 {
         address: Ipv4Cidr::new(Ipv4Address::new(a, b, c, d), network::PREFIX_LEN),
@@ -180,6 +220,7 @@ async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, Samples>) ->
             app: &mut app,
             clock: &EmbassyClock,
             monitor: &mut monitor,
+            link: &LINK,
         }
         .tcp(buffers)
         .await
@@ -195,6 +236,7 @@ async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, Samples>) ->
             app: &mut app,
             clock: &EmbassyClock,
             monitor: &mut monitor,
+            link: &LINK,
         }
         .udp(buffers)
         .await
@@ -390,10 +432,19 @@ fn state_led(state: SensorState, tick: u32) -> bool {
     }
 }
 
+/// The counter line, once a second (host tools parse it:
+/// `host-tests/src/counters.rs`): the engine's counters, the fragment
+/// guard's (S5) and the network chip's own receive counters where the
+/// board reads them (`nic n/a` where it does not).
 fn log_counters(s: &Snapshot) {
     let st = &s.stats;
+    let fr = &st.fragments;
+    let (read, nic) = match board::nic_counters() {
+        Some(n) => ("read", n),
+        None => ("n/a", hal_board::NicCounters::default()),
+    };
     defmt::info!(
-        "counters: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {}",
+        "counters: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {} | fragments {} reassembled {} oversize {} unwanted {} malformed {} no-buffer {} timed-out {} evicted {} spoiled {} | controller-in {} controller-incomplete {} controller-dropped {} | nic {=str} rx {} rx-dropped {} status-full {} fifo-max {}",
         st.received,
         st.answered,
         st.dropped_foreign,
@@ -408,6 +459,23 @@ fn log_counters(s: &Snapshot) {
         st.timeouts,
         if st.latency.count > 0 { st.latency.max_us } else { 0 },
         st.latency.total_us.checked_div(u64::from(st.latency.count)).unwrap_or(0),
+        fr.fragments,
+        fr.reassembled,
+        fr.oversize,
+        fr.unwanted,
+        fr.malformed,
+        fr.no_buffer,
+        fr.timed_out,
+        fr.evicted,
+        fr.spoiled,
+        fr.controller_datagrams,
+        fr.controller_incomplete,
+        fr.controller_dropped,
+        read,
+        nic.rx_frames,
+        nic.rx_dropped,
+        nic.status_full,
+        nic.fifo_max,
     );
 }
 

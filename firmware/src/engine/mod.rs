@@ -225,6 +225,12 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
         bump(&mut self.stats.framing_errors);
     }
 
+    /// The fragment guard's counters as of now (S5): the cycle copies
+    /// them in after every turn, so [`Engine::stats`] has every counter.
+    pub fn set_fragment_stats(&mut self, fragments: crate::fragments::FragmentStats) {
+        self.stats.fragments = fragments;
+    }
+
     /// The transport could not send a reply (counted; the cycle goes on).
     pub fn send_failed(&mut self) {
         bump(&mut self.stats.send_errors);

@@ -2,6 +2,7 @@
 //! latency histogram, readable as one `Copy` snapshot.
 
 use crate::codec::DecodeErrorKind;
+use crate::fragments::FragmentStats;
 
 /// Receive → reply-ready time in device clock ticks (µs), in power-of-two
 /// buckets: bucket `i` counts latencies below `2^i` µs (and at least
@@ -178,6 +179,11 @@ pub struct Stats {
     /// Receive → reply-ready time of every answer (periodic sends are not
     /// timed).
     pub latency: Histogram,
+    /// IPv4 fragments (S5): counted by the fragment guard in front of the
+    /// board's driver ([`crate::fragments`]) and copied in by the cycle
+    /// after every turn ([`super::Engine::set_fragment_stats`]); zero
+    /// where there is no guard (the host sensor on std sockets).
+    pub fragments: FragmentStats,
 }
 
 impl Default for Stats {
@@ -222,6 +228,7 @@ impl Stats {
         send_errors: 0,
         stalled_closed: 0,
         latency: Histogram::EMPTY,
+        fragments: FragmentStats::ZERO,
     };
 }
 

@@ -19,8 +19,16 @@
 //! - TX end alignment is ignored: exactly `ceil(len / 4)` data words follow
 //!   the command words;
 //! - popping an empty status FIFO returns a stale entry: the used counts in
-//!   `RX_FIFO_INF` / `TX_FIFO_INF` are checked first.
+//!   `RX_FIFO_INF` / `TX_FIFO_INF` are checked first;
+//! - a frame that does not fit the RX FIFOs (2,640 data words, 176 status
+//!   entries) is dropped silently: `RX_DROP` always reads 0 and no status
+//!   bit is set ("TODO" in QEMU's model). On a real chip `RX_DROP` counts
+//!   them (cleared on read: Linux's smsc911x adds each read to its
+//!   `rx_dropped`) and `INT_STS` flags a full status FIFO; [`nic_counters`]
+//!   reads both, and the FIFO's fill when the driver takes a frame, for
+//!   the firmware's counter line.
 
+use core::sync::atomic::{AtomicU32, Ordering};
 use core::task::Context;
 use embassy_net_driver::{Capabilities, HardwareAddress, LinkState};
 use embassy_sync::waitqueue::AtomicWaker;
@@ -42,6 +50,7 @@ pub mod reg {
     pub const RX_FIFO_INF: usize = 0x7c;
     pub const TX_FIFO_INF: usize = 0x80;
     pub const PMT_CTRL: usize = 0x84;
+    pub const RX_DROP: usize = 0xa0;
     pub const MAC_CSR_CMD: usize = 0xa4;
     pub const MAC_CSR_DATA: usize = 0xa8;
 }
@@ -63,6 +72,10 @@ const PMT_CTRL_READY: u32 = 1;
 const IRQ_CFG_ENABLED: u32 = (1 << 8) | (1 << 4) | 1;
 /// `INT_STS`/`INT_EN`: RX status FIFO level reached.
 pub const INT_RSFL: u32 = 1 << 3;
+/// `INT_STS`: RX status FIFO full (frames are being dropped).
+pub const INT_RSFF: u32 = 1 << 4;
+/// `INT_STS`: a received frame was dropped (`RX_DROP` counted it).
+pub const INT_RXDF: u32 = 1 << 6;
 const MAC_CR_RXEN: u32 = 1 << 2;
 const MAC_CR_TXEN: u32 = 1 << 3;
 const MAC_CR_FDPX: u32 = 1 << 20;
@@ -109,18 +122,55 @@ pub struct Counters {
     /// Frames with the error bit, or too short or too long to be Ethernet,
     /// discarded.
     pub rx_discarded: u32,
+    /// The most bytes the RX data FIFO held when a frame was taken.
+    pub rx_fifo_max: u32,
 }
 
 /// Woken by the chip's interrupt: the network stack polls `receive` again.
 static RX_WAKER: AtomicWaker = AtomicWaker::new();
 
+/// The chip's receive counters, readable from any task while the driver
+/// lives inside the network stack (one chip per board).
+static RX_FRAMES: AtomicU32 = AtomicU32::new(0);
+static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
+static RX_STATUS_FULL: AtomicU32 = AtomicU32::new(0);
+static RX_FIFO_MAX: AtomicU32 = AtomicU32::new(0);
+
+/// Adds the chip's dropped-frame count since the last read (reading
+/// clears it).
+fn take_rx_drop<R: Registers>(regs: &R) {
+    let dropped = regs.read(reg::RX_DROP);
+    if dropped != 0 {
+        RX_DROPPED.fetch_add(dropped, Ordering::Relaxed);
+    }
+}
+
 /// The board calls this from the chip's interrupt handler: acknowledge
-/// everything pending (the NVIC input is level-triggered) and wake the
-/// network stack.
+/// everything pending (the NVIC input is level-triggered), note a full
+/// status FIFO or dropped frames, and wake the network stack.
 pub fn on_interrupt<R: Registers>(regs: &R) {
     let pending = regs.read(reg::INT_STS);
     regs.write(reg::INT_STS, pending);
+    if pending & INT_RSFF != 0 {
+        RX_STATUS_FULL.fetch_add(1, Ordering::Relaxed);
+    }
+    if pending & INT_RXDF != 0 {
+        take_rx_drop(regs);
+    }
     RX_WAKER.wake();
+}
+
+/// What the chip and the driver counted on the receive side so far
+/// (reads `RX_DROP`, which has no effect on the FIFOs: safe beside the
+/// driver).
+pub fn nic_counters<R: Registers>(regs: &R) -> crate::NicCounters {
+    take_rx_drop(regs);
+    crate::NicCounters {
+        rx_frames: RX_FRAMES.load(Ordering::Relaxed),
+        rx_dropped: RX_DROPPED.load(Ordering::Relaxed),
+        status_full: RX_STATUS_FULL.load(Ordering::Relaxed),
+        fifo_max: RX_FIFO_MAX.load(Ordering::Relaxed),
+    }
 }
 
 /// The driver.
@@ -230,8 +280,16 @@ impl<R: Registers> Lan9118<R> {
         Err(InitError::CsrTimeout)
     }
 
-    fn rx_frames_waiting(&self) -> u32 {
-        (self.regs.read(reg::RX_FIFO_INF) >> 16) & 0xff
+    /// Frames waiting in the RX status FIFO; notes how full the data FIFO
+    /// is (the same register read).
+    fn rx_frames_waiting(&mut self) -> u32 {
+        let inf = self.regs.read(reg::RX_FIFO_INF);
+        let used = inf & 0xffff;
+        if used > self.counters.rx_fifo_max {
+            self.counters.rx_fifo_max = used;
+            RX_FIFO_MAX.fetch_max(used, Ordering::Relaxed);
+        }
+        (inf >> 16) & 0xff
     }
 
     /// Takes the next frame out of the RX FIFOs into `self.rx`; its length
@@ -254,6 +312,7 @@ impl<R: Registers> Lan9118<R> {
                 chunk.copy_from_slice(&self.regs.read(reg::RX_DATA_FIFO).to_le_bytes());
             }
             self.counters.rx_frames = self.counters.rx_frames.wrapping_add(1);
+            RX_FRAMES.fetch_add(1, Ordering::Relaxed);
             return Some(len - 4);
         }
         None

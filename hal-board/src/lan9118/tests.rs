@@ -22,6 +22,8 @@ struct Chip {
     csr_data: u32,
     int_sts: u32,
     int_en: u32,
+    /// Frames the chip dropped since `RX_DROP` was last read.
+    rx_drop: u32,
     irq_cfg: u32,
     resets: u32,
     /// Every register write, in order.
@@ -102,6 +104,7 @@ impl Registers for Fake {
             reg::HW_CFG => 0,
             reg::PMT_CTRL => 1,
             reg::INT_STS => c.int_sts,
+            reg::RX_DROP => std::mem::take(&mut c.rx_drop),
             reg::RX_FIFO_INF => (c.rx_status.len() as u32) << 16 | (c.rx_data.len() as u32 * 4),
             reg::TX_FIFO_INF => c.tx_status << 16 | 4608,
             reg::MAC_CSR_CMD => 0,
@@ -278,4 +281,35 @@ fn link_comes_from_the_phy() {
     assert!(matches!(nic.link_state(&mut cx), LinkState::Up));
     assert_eq!(nic.capabilities().max_transmission_unit, MTU);
     assert!(matches!(nic.hardware_address(), HardwareAddress::Ethernet(m) if m == MAC));
+}
+
+#[test]
+fn the_chips_dropped_frames_full_fifo_and_fill_reach_the_counters() {
+    let mut nic = Lan9118::new(Fake::new(), MAC).unwrap();
+    let (_, waker) = context();
+    let mut cx = Context::from_waker(&waker);
+    let before = nic_counters(nic.registers());
+    // Three full frames wait: the driver sees the data FIFO 3 × 380 words full.
+    for i in 0..3 {
+        nic.registers().arrive(&frame(1514, i), false);
+    }
+    for _ in 0..3 {
+        nic.receive(&mut cx).expect("a frame").0.consume(|_| ());
+    }
+    assert_eq!(nic.counters().rx_fifo_max, 3 * 380 * 4);
+    // The chip dropped five frames and says so in INT_STS; two more are
+    // counted by the time the counters are read. RX_DROP clears on read.
+    {
+        let mut c = nic.registers().0.borrow_mut();
+        c.rx_drop = 5;
+        c.int_sts |= INT_RXDF | INT_RSFF;
+    }
+    on_interrupt(nic.registers());
+    nic.registers().0.borrow_mut().rx_drop = 2;
+    let after = nic_counters(nic.registers());
+    assert_eq!(after.rx_dropped - before.rx_dropped, 7);
+    assert_eq!(after.status_full - before.status_full, 1);
+    assert!(after.rx_frames - before.rx_frames >= 3);
+    assert!(after.fifo_max >= 3 * 380 * 4);
+    assert_eq!(nic.registers().0.borrow().rx_drop, 0, "read to clear");
 }

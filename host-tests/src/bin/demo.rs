@@ -1,11 +1,14 @@
 //! `cargo demo [-- --tcp] [--cycles N] [--warm-up N] [--send NAME=MS]…
-//! [--reply NAME]`: the whole product in one command.
+//! [--reply NAME] [--oversize-attack]`: the whole product in one command.
 //! Installs QEMU when it is missing, builds the sensor firmware for QEMU's
 //! `mps2-an500` board (Cortex-M7, LAN9118 Ethernet), boots it, warms it up,
 //! drives it with the robot-controller simulator (2,500 cycles at 4 ms: 10 s
 //! of robot time) while showing the device's own log, and exits 0 only when
 //! every reply was right and on time and the firmware is still running
 //! ([`host_tests::demo`], which `cargo hil` shares).
+//! `--oversize-attack` sends the attack of S5's issue after the warm-up
+//! (two 9,000-byte datagrams) and then requires every robot message
+//! answered.
 
 use clap::Parser;
 use host_tests::demo::{self, Failure, RunArgs, Setup};

@@ -4,6 +4,8 @@
 //! embassy-net stack, a robot on another, one cable between them).
 #![allow(dead_code)] // each test file uses its part
 
+pub mod udp;
+
 use embassy_net::{Ipv4Cidr, Stack, StackResources, StaticConfigV4};
 use embassy_net_driver::{Capabilities, Driver, HardwareAddress, LinkState, RxToken, TxToken};
 use embassy_time::{Duration, MockDriver};
@@ -144,6 +146,7 @@ where
     let mut buffers =
         TcpBuffers::<4096, { layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>::new();
     let mut monitor = ();
+    let link = rri_firmware::fragments::Link::new();
     let mut device_net = pin!(device_runner.run());
     let mut robot_net = pin!(robot_runner.run());
     let cycle = Cycle {
@@ -153,6 +156,7 @@ where
         app,
         clock: &EmbassyClock,
         monitor: &mut monitor,
+        link: &link,
     };
     let mut task = pin!(cycle.tcp(&mut buffers));
     let mut robot = pin!(robot(robot_stack));

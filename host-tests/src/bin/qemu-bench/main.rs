@@ -29,6 +29,7 @@ mod report;
 mod run;
 
 use clap::Parser;
+use host_tests::counters::{DeviceCounters, LossSplit};
 use host_tests::qemu::{self, Boot, Qemu};
 use host_tests::qemu_bench::{self as qb, Input, Record};
 use host_tests::robot::report::Summary;
@@ -105,6 +106,9 @@ struct Flooded {
     driven: Driven,
     log: Vec<String>,
     counters: String,
+    /// Where the lost robot messages went (from the device's last counter
+    /// line; `None` when it logged none).
+    split: Option<LossSplit>,
 }
 
 fn bench(args: &Args) -> Result<bool, String> {
@@ -297,9 +301,16 @@ fn flood(
     );
     let driven = drive(&board, to, gsi, device, args.cycles, args.flood_us, true)?;
     let log = finish(board, "under the flood")?;
+    let s = &driven.summary;
+    let split = log
+        .iter()
+        .rev()
+        .find_map(|l| DeviceCounters::parse(l))
+        .map(|c| LossSplit::of(s.sent, s.answered, &c));
     Ok(Flooded {
         driven,
         counters: last_counters(&log),
+        split,
         log,
     })
 }

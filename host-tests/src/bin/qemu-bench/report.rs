@@ -82,15 +82,18 @@ impl Figures {
             .count() as u64;
         let f = &fl.driven.summary;
         // Gated: the deterministic run. Under the flood (real time) a wrong
-        // or malformed reply fails too; lost datagrams there are reported,
-        // not gated: they never reach the engine (its Id gaps) and depend
+        // or malformed reply fails too, and so does a robot message lost in
+        // the firmware (reassembly, socket queue, engine: S5); the ones
+        // that never reached it whole are reported, not gated: they depend
         // on how QEMU is scheduled on the host.
+        let in_firmware = fl.split.map_or(0, |s| s.reassembly + s.engine);
         let missed = m.summary.lost
             + m.summary.wrong_id
             + m.summary.malformed
             + late_device
             + f.wrong_id
-            + f.malformed;
+            + f.malformed
+            + in_firmware;
         let hostile: Vec<u64> = m.hostile.iter().map(|(_, r)| hostile_cost(r)).collect();
         let hostile_max = hostile.iter().copied().max().unwrap_or(0);
         let baseline_median = m
@@ -226,6 +229,9 @@ fn print(args: &Args, m: &Measured, fl: &Flooded, x: &Figures) {
         f.latency_us.median, f.latency_us.p99, f.latency_us.max
     );
     println!("  device: {}", fl.counters);
+    if let Some(split) = &fl.split {
+        println!("  robot messages {}", split.line());
+    }
     println!(
         "\n== hostile: every input {} bytes (MAX_RECEIVE_LEN), ×{} each",
         host_tests::layouts::anydevice::MAX_RECEIVE_LEN,
@@ -289,7 +295,9 @@ fn write_files(m: &Measured, fl: &Flooded, x: &Figures) -> Result<(), String> {
             "ours": u64::from(*o) * INSTRUCTIONS_PER_COUNT, "tokenizer": u64::from(*t) * INSTRUCTIONS_PER_COUNT,
             "baseline": u64::from(*base) * INSTRUCTIONS_PER_COUNT})).collect::<Vec<_>>(),
         "flood": {"sent": fl.driven.flood_sent, "robot_sent": f.sent, "answered": f.answered,
-            "lost": f.lost, "late_host_wall_clock": f.late},
+            "lost": f.lost, "late_host_wall_clock": f.late,
+            "lost_where": fl.split.map(|s| json!({"nic": s.nic, "reassembly": s.reassembly,
+                "engine": s.engine, "way_back": s.way_back}))},
     });
     let _ = std::fs::write(dir.join("device.log"), m.log.join("\n") + "\n");
     let _ = std::fs::write(dir.join("device-flood.log"), fl.log.join("\n") + "\n");

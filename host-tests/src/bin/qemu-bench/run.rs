@@ -22,7 +22,9 @@ pub struct Driven {
 
 /// Runs the robot simulator for `cycles` against `to`, with a flood of
 /// rejected datagrams ([`qb::flood_datagrams`], in turn) from a second port
-/// every `flood_us` (0: none).
+/// every `flood_us` (0: none). The flood starts once the robot is the
+/// device's peer, so that every robot message the device counts as the
+/// controller's is the robot's (the split of the losses needs it).
 pub fn drive(
     board: &Qemu,
     to: std::net::SocketAddr,
@@ -33,7 +35,17 @@ pub fn drive(
     paced: bool,
 ) -> Result<Driven, String> {
     let stop = Arc::new(AtomicBool::new(false));
+    let mut opts = RobotOptions::new(gsi.to_path_buf(), to);
+    opts.cycles = cycles;
+    opts.pacing = paced;
+    opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let start = board.lines();
+    let robot = {
+        let device = device.clone();
+        std::thread::spawn(move || run(&opts, &device, &mut std::io::sink()))
+    };
     let flood = if flood_us > 0 {
+        wait_for_peer(board, start)?;
         Some(qb::flood(
             std::net::SocketAddr::from(([127, 0, 0, 1], 0)),
             to,
@@ -44,12 +56,9 @@ pub fn drive(
     } else {
         None
     };
-    let mut opts = RobotOptions::new(gsi.to_path_buf(), to);
-    opts.cycles = cycles;
-    opts.pacing = paced;
-    opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let start = board.lines();
-    let result = run(&opts, device, &mut std::io::sink());
+    let result = robot
+        .join()
+        .map_err(|_| "the robot simulator panicked".to_string())?;
     stop.store(true, Ordering::Relaxed);
     let flooded = flood
         .map(|f| f.join().map_err(|_| "the flooder panicked".to_string()))
@@ -63,6 +72,23 @@ pub fn drive(
         flood_sent: flooded.total(),
         lines: board.since(start),
     })
+}
+
+/// Waits (up to 10 s) until the device logged `state OPERATING` after line
+/// `start`: the robot's first message made it the peer.
+fn wait_for_peer(board: &Qemu, start: usize) -> Result<(), String> {
+    let end = Instant::now() + Duration::from_secs(10);
+    while !board
+        .since(start)
+        .iter()
+        .any(|l| l.contains("state OPERATING"))
+    {
+        if Instant::now() > end {
+            return Err("the robot never became the device's peer".into());
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    Ok(())
 }
 
 /// Stops QEMU and returns the whole log; an error if the firmware had

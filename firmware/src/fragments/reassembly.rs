@@ -1,0 +1,541 @@
+//! The reassembler: frames in, whole datagrams out, every byte checked
+//! before it is trusted (the header and its checksum, lengths in 8-byte
+//! units, overlaps), work bounded by the frame's length, buffers fixed at
+//! build time.
+
+use super::{
+    Channel, Controller, FragmentDrop, FragmentStats, Rank, SetLoss, HEADERS, SLOTS, TIMEOUT_US,
+    UDP_HEADER,
+};
+
+const ETHERTYPE_IPV4: u16 = 0x0800;
+const ETHERNET: usize = 14;
+const IPV4: usize = 20;
+const UDP: u8 = 17;
+/// IPv4 flags and fragment offset: "more fragments", the offset in 8-byte
+/// units.
+const MORE_FRAGMENTS: u16 = 0x2000;
+const OFFSET_UNITS: u16 = 0x1fff;
+/// Coverage is kept per 8-byte block (fragment offsets count in them).
+const BLOCK: usize = 8;
+const MAP_WORDS: usize = 16;
+/// Blocks a buffer's coverage map records.
+pub(super) const MAP_BLOCKS: usize = MAP_WORDS * 64;
+
+/// What [`Reassembler::accept`] made of a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// Not an IPv4 fragment: hand the frame on as it is.
+    Pass,
+    /// A fragment, kept in its set's buffer: nothing to hand on yet.
+    Held,
+    /// A fragment, dropped (counted).
+    Dropped(FragmentDrop),
+    /// The fragment completed its set: the first `len` bytes of buffer
+    /// `slot` are the whole datagram, Ethernet header first
+    /// ([`Reassembler::datagram`]). The buffer is free again: read it
+    /// before the next frame.
+    Complete {
+        /// The buffer.
+        slot: usize,
+        /// Bytes of the datagram with its headers.
+        len: usize,
+    },
+}
+
+/// One set being put together, in a buffer of `BUF` bytes. All zeros is
+/// a free slot (so a `static` of them costs no flash).
+struct Slot<const BUF: usize> {
+    busy: bool,
+    rank: Rank,
+    src: [u8; 4],
+    ident: u16,
+    started_us: u64,
+    /// IP payload bytes of the whole datagram; 0 until the last fragment
+    /// (the one without "more fragments") came.
+    total: usize,
+    /// The furthest byte any fragment reached.
+    end: usize,
+    /// Blocks received, and which.
+    blocks: usize,
+    map: [u64; MAP_WORDS],
+    fragments: u16,
+    /// Ethernet header, IPv4 header (20 bytes), IP payload.
+    buf: [u8; BUF],
+}
+
+impl<const BUF: usize> Slot<BUF> {
+    const FREE: Self = Slot {
+        busy: false,
+        rank: Rank::Stranger,
+        src: [0; 4],
+        ident: 0,
+        started_us: 0,
+        total: 0,
+        end: 0,
+        blocks: 0,
+        map: [0; MAP_WORDS],
+        fragments: 0,
+        buf: [0; BUF],
+    };
+
+    fn start(&mut self, src: [u8; 4], ident: u16, rank: Rank, now_us: u64) {
+        self.busy = true;
+        self.rank = rank;
+        self.src = src;
+        self.ident = ident;
+        self.started_us = now_us;
+        self.total = 0;
+        self.end = 0;
+        self.blocks = 0;
+        self.map = [0; MAP_WORDS];
+        self.fragments = 0;
+    }
+
+    fn holds(&self, src: [u8; 4], ident: u16) -> bool {
+        self.busy && self.src == src && self.ident == ident
+    }
+
+    /// Adds fragment `f` (of `frame`); `false` when it overlaps what is
+    /// there or contradicts the datagram's end (the caller spoils the set).
+    fn add(&mut self, f: &Fragment<'_>, frame: &[u8]) -> bool {
+        let end = f.offset + f.payload.len();
+        let (first, last) = (f.offset / BLOCK, end.div_ceil(BLOCK));
+        for b in first..last {
+            match self.map.get(b / 64) {
+                Some(w) if w & (1 << (b % 64)) == 0 => {}
+                _ => return false,
+            }
+        }
+        if f.more {
+            if self.total != 0 && end > self.total {
+                return false;
+            }
+        } else {
+            if (self.total != 0 && self.total != end) || self.end > end {
+                return false;
+            }
+            self.total = end;
+        }
+        let Some(dst) = self.buf.get_mut(HEADERS + f.offset..HEADERS + end) else {
+            return false;
+        };
+        dst.copy_from_slice(f.payload);
+        for b in first..last {
+            if let Some(w) = self.map.get_mut(b / 64) {
+                *w |= 1 << (b % 64);
+            }
+        }
+        self.blocks += last - first;
+        self.end = self.end.max(end);
+        // The headers of the first fragment to come, then of the first
+        // fragment itself: the addresses are the same in every one.
+        if self.fragments == 0 || f.offset == 0 {
+            if let (Some(to), Some(from)) = (self.buf.get_mut(..HEADERS), frame.get(..HEADERS)) {
+                to.copy_from_slice(from);
+            }
+        }
+        self.fragments = self.fragments.saturating_add(1);
+        true
+    }
+
+    fn complete(&self) -> bool {
+        self.total != 0 && self.blocks == self.total.div_ceil(BLOCK)
+    }
+
+    /// Writes the whole datagram's IPv4 header (no options, not a
+    /// fragment, its length, a fresh checksum); its length with headers.
+    fn finish(&mut self) -> usize {
+        let len = IPV4 + self.total;
+        if let Some(h) = self.buf.get_mut(ETHERNET..HEADERS) {
+            if let Some(v) = h.get_mut(0) {
+                *v = 0x45;
+            }
+            put16(h, 2, u16::try_from(len).unwrap_or(u16::MAX));
+            put16(h, 6, 0);
+            put16(h, 10, 0);
+            let sum = checksum(h);
+            put16(h, 10, sum);
+        }
+        ETHERNET + len
+    }
+}
+
+/// An IPv4 fragment, checked: header length and checksum, lengths within
+/// the frame, a non-empty payload that is a multiple of 8 bytes in front
+/// of more fragments.
+struct Fragment<'a> {
+    src: [u8; 4],
+    dst: [u8; 4],
+    ident: u16,
+    protocol: u8,
+    more: bool,
+    /// In bytes.
+    offset: usize,
+    payload: &'a [u8],
+}
+
+/// What a frame is, read without trusting it.
+enum Frame<'a> {
+    /// Not IPv4, or IPv4 that is not a fragment.
+    Whole,
+    Fragment(Fragment<'a>),
+    /// IPv4 with the fragment bits set, but broken.
+    Broken,
+}
+
+fn be16(b: &[u8], i: usize) -> Option<u16> {
+    Some(u16::from_be_bytes([*b.get(i)?, *b.get(i + 1)?]))
+}
+
+fn put16(b: &mut [u8], i: usize, v: u16) {
+    if let Some(d) = b.get_mut(i..i + 2) {
+        d.copy_from_slice(&v.to_be_bytes());
+    }
+}
+
+fn ip4(b: &[u8], i: usize) -> Option<[u8; 4]> {
+    b.get(i..i + 4)?.try_into().ok()
+}
+
+/// The Internet checksum of `b` (0 over a header whose checksum is right).
+fn checksum(b: &[u8]) -> u16 {
+    let mut sum: u32 = 0;
+    let mut words = b.chunks_exact(2);
+    for w in &mut words {
+        if let [hi, lo] = w {
+            sum += u32::from(u16::from_be_bytes([*hi, *lo]));
+        }
+    }
+    if let [last] = words.remainder() {
+        sum += u32::from(*last) << 8;
+    }
+    while sum > 0xffff {
+        sum = (sum & 0xffff) + (sum >> 16);
+    }
+    !(sum as u16)
+}
+
+fn classify(frame: &[u8]) -> Frame<'_> {
+    if be16(frame, 12) != Some(ETHERTYPE_IPV4) {
+        return Frame::Whole;
+    }
+    let (Some(&vihl), Some(flags)) = (frame.get(ETHERNET), be16(frame, ETHERNET + 6)) else {
+        return Frame::Whole;
+    };
+    let more = flags & MORE_FRAGMENTS != 0;
+    let offset = usize::from(flags & OFFSET_UNITS) * 8;
+    if vihl >> 4 != 4 || (!more && offset == 0) {
+        // Not IPv4 (the stack drops it) or not a fragment.
+        return Frame::Whole;
+    }
+    fragment(frame, vihl, more, offset).map_or(Frame::Broken, Frame::Fragment)
+}
+
+fn fragment(frame: &[u8], vihl: u8, more: bool, offset: usize) -> Option<Fragment<'_>> {
+    let ihl = usize::from(vihl & 0x0f) * 4;
+    let total = usize::from(be16(frame, ETHERNET + 2)?);
+    if ihl < IPV4 || total < ihl {
+        return None;
+    }
+    let header = frame.get(ETHERNET..ETHERNET + ihl)?;
+    if checksum(header) != 0 {
+        return None;
+    }
+    let payload = frame.get(ETHERNET + ihl..ETHERNET + total)?;
+    if payload.is_empty() || (more && payload.len() % BLOCK != 0) {
+        return None;
+    }
+    Some(Fragment {
+        src: ip4(frame, ETHERNET + 12)?,
+        dst: ip4(frame, ETHERNET + 16)?,
+        ident: be16(frame, ETHERNET + 4)?,
+        protocol: *frame.get(ETHERNET + 9)?,
+        more,
+        offset,
+        payload,
+    })
+}
+
+/// UDP source and destination port of a whole IPv4 datagram to `device`.
+fn udp_ports(frame: &[u8], device: [u8; 4]) -> Option<([u8; 4], u16, u16)> {
+    if be16(frame, 12)? != ETHERTYPE_IPV4 || *frame.get(ETHERNET + 9)? != UDP {
+        return None;
+    }
+    if ip4(frame, ETHERNET + 16)? != device {
+        return None;
+    }
+    let ihl = usize::from(frame.get(ETHERNET)? & 0x0f) * 4;
+    if ihl < IPV4 {
+        return None;
+    }
+    let udp = ETHERNET + ihl;
+    Some((
+        ip4(frame, ETHERNET + 12)?,
+        be16(frame, udp)?,
+        be16(frame, udp + 2)?,
+    ))
+}
+
+/// IPv4 reassembly under S5 (see the [module](super)), in [`SLOTS`]
+/// buffers of `BUF` bytes each ([`super::buffer_len`] of the layout's
+/// `MAX_RECEIVE_LEN`). All zeros when new, so a `static` costs no flash.
+pub struct Reassembler<const BUF: usize> {
+    slots: [Slot<BUF>; SLOTS],
+    stats: FragmentStats,
+    changed: bool,
+    /// The last frame handed on was a UDP datagram to the channel port.
+    to_channel: bool,
+}
+
+impl<const BUF: usize> Default for Reassembler<BUF> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const BUF: usize> Reassembler<BUF> {
+    /// Every buffer free, every counter at zero. Does not compile when a
+    /// buffer cannot hold the headers and a UDP header, or holds more than
+    /// the coverage map can record ([`super::MAX_PAYLOAD`]).
+    pub const fn new() -> Self {
+        const {
+            assert!(
+                BUF >= HEADERS + UDP_HEADER,
+                "a reassembly buffer must hold the headers"
+            );
+            assert!(
+                BUF - HEADERS <= MAP_BLOCKS * BLOCK,
+                "the layout's MAX_RECEIVE_LEN is past what a reassembly buffer can record (fragments::MAX_PAYLOAD)"
+            );
+        }
+        Reassembler {
+            slots: [const { Slot::FREE }; SLOTS],
+            stats: FragmentStats::ZERO,
+            changed: false,
+            to_channel: false,
+        }
+    }
+
+    /// The counters so far.
+    pub fn stats(&self) -> FragmentStats {
+        self.stats
+    }
+
+    /// Whether the counters changed since the last call (the guard
+    /// publishes them only then).
+    pub fn take_changed(&mut self) -> bool {
+        core::mem::take(&mut self.changed)
+    }
+
+    /// Whether the last frame [`Reassembler::accept`] took handed the
+    /// stack a UDP datagram for the channel port (whole or reassembled):
+    /// one the cycle will have to take from its socket.
+    pub fn to_channel(&self) -> bool {
+        self.to_channel
+    }
+
+    /// Sets holding a buffer now.
+    pub fn held(&self) -> usize {
+        self.slots.iter().filter(|s| s.busy).count()
+    }
+
+    fn lose(&mut self, slot: usize, reason: SetLoss) {
+        if let Some(s) = self.slots.get_mut(slot) {
+            if s.busy {
+                s.busy = false;
+                self.stats.count_loss(reason, s.rank);
+                self.changed = true;
+            }
+        }
+    }
+
+    fn drop_fragment(&mut self, reason: FragmentDrop, spoils: Option<usize>) -> Verdict {
+        if let Some(slot) = spoils {
+            // A set shown to be oversize or for another port was never a
+            // robot message: given up, not the controller's loss.
+            let robot_message = matches!(reason, FragmentDrop::Malformed);
+            if let (false, Some(s)) = (robot_message, self.slots.get_mut(slot)) {
+                s.rank = s.rank.min(Rank::Likely);
+            }
+            self.lose(slot, SetLoss::Spoiled);
+        }
+        self.stats.count_drop(reason);
+        self.changed = true;
+        Verdict::Dropped(reason)
+    }
+
+    /// Gives up every set still incomplete [`TIMEOUT_US`] after its first
+    /// fragment.
+    pub fn expire(&mut self, now_us: u64) {
+        for i in 0..SLOTS {
+            let stale = self
+                .slots
+                .get(i)
+                .is_some_and(|s| s.busy && now_us.saturating_sub(s.started_us) >= TIMEOUT_US);
+            if stale {
+                self.lose(i, SetLoss::TimedOut);
+            }
+        }
+    }
+
+    /// A buffer for a new set of rank `rank`: a free one, else the
+    /// lowest-ranked (then oldest) set below `rank`, else, for the
+    /// controller, its own oldest set (a newer message supersedes it).
+    fn allocate(&mut self, rank: Rank) -> Option<usize> {
+        if let Some(free) = self.slots.iter().position(|s| !s.busy) {
+            return Some(free);
+        }
+        let oldest = |below: bool| {
+            self.slots
+                .iter()
+                .enumerate()
+                .filter(|(_, s)| if below { s.rank < rank } else { s.rank == rank })
+                .min_by_key(|(_, s)| (s.rank, s.started_us))
+                .map(|(i, _)| i)
+        };
+        let (victim, reason) = match oldest(true) {
+            Some(v) => (v, SetLoss::Evicted),
+            None if rank == Rank::Controller => (oldest(false)?, SetLoss::Superseded),
+            None => return None,
+        };
+        self.lose(victim, reason);
+        Some(victim)
+    }
+
+    /// Takes one frame at `now_us` (µs, any monotonic clock). Frames that
+    /// are not IPv4 fragments pass (the controller's datagrams to the
+    /// channel port among them are counted); fragments are checked, kept
+    /// or dropped, and the one that completes its set gives the whole
+    /// datagram.
+    pub fn accept(
+        &mut self,
+        frame: &[u8],
+        now_us: u64,
+        channel: Channel,
+        controller: Controller,
+    ) -> Verdict {
+        self.to_channel = false;
+        let f = match classify(frame) {
+            Frame::Whole => {
+                if let Some((src, sport, dport)) = udp_ports(frame, channel.device) {
+                    self.to_channel = dport == channel.port;
+                    if self.to_channel && controller.sent(src, sport) {
+                        self.stats.controller_datagrams =
+                            self.stats.controller_datagrams.saturating_add(1);
+                        self.changed = true;
+                    }
+                }
+                return Verdict::Pass;
+            }
+            Frame::Broken => {
+                self.stats.fragments = self.stats.fragments.saturating_add(1);
+                return self.drop_fragment(FragmentDrop::Malformed, None);
+            }
+            Frame::Fragment(f) => f,
+        };
+        self.stats.fragments = self.stats.fragments.saturating_add(1);
+        self.changed = true;
+        self.expire(now_us);
+        let held = self.slots.iter().position(|s| s.holds(f.src, f.ident));
+        if f.dst != channel.device || f.protocol != UDP {
+            return self.drop_fragment(FragmentDrop::Unwanted, held);
+        }
+        if f.offset + f.payload.len() > BUF - HEADERS {
+            return self.drop_fragment(FragmentDrop::Oversize, held);
+        }
+        let rank = if f.offset == 0 {
+            // The first fragment carries the UDP header (at least 8 bytes:
+            // its length is a multiple of 8 in front of more fragments).
+            let (Some(sport), Some(dport)) = (be16(f.payload, 0), be16(f.payload, 2)) else {
+                return self.drop_fragment(FragmentDrop::Malformed, held);
+            };
+            if dport != channel.port {
+                return self.drop_fragment(FragmentDrop::Unwanted, held);
+            }
+            if controller.sent(f.src, sport) {
+                Rank::Controller
+            } else if controller.from_address(f.src) {
+                Rank::Likely
+            } else {
+                Rank::Stranger
+            }
+        } else if controller.from_address(f.src) {
+            Rank::Likely
+        } else {
+            Rank::Stranger
+        };
+        let slot = match held {
+            Some(i) => {
+                if let (Some(s), 0) = (self.slots.get_mut(i), f.offset) {
+                    s.rank = rank;
+                }
+                i
+            }
+            None => match self.allocate(rank) {
+                Some(i) => {
+                    if let Some(s) = self.slots.get_mut(i) {
+                        s.start(f.src, f.ident, rank, now_us);
+                    }
+                    i
+                }
+                None => {
+                    if rank == Rank::Controller {
+                        self.stats.controller_dropped =
+                            self.stats.controller_dropped.saturating_add(1);
+                    }
+                    return self.drop_fragment(FragmentDrop::NoBuffer, None);
+                }
+            },
+        };
+        let Some(s) = self.slots.get_mut(slot) else {
+            return self.drop_fragment(FragmentDrop::NoBuffer, None);
+        };
+        if !s.add(&f, frame) {
+            return self.drop_fragment(FragmentDrop::Malformed, Some(slot));
+        }
+        if !s.complete() {
+            return Verdict::Held;
+        }
+        let len = s.finish();
+        // Free again: the datagram stays in the buffer until the next
+        // fragment, and the caller hands it on before that.
+        s.busy = false;
+        let rank = s.rank;
+        self.stats.reassembled = self.stats.reassembled.saturating_add(1);
+        self.to_channel = true;
+        if rank == Rank::Controller {
+            self.stats.controller_datagrams = self.stats.controller_datagrams.saturating_add(1);
+        }
+        Verdict::Complete { slot, len }
+    }
+
+    /// [`Reassembler::accept`], then `f` gets what the stack should see:
+    /// the frame itself, the whole datagram of a completed set, or nothing (an empty frame, which smoltcp
+    /// skips) for a fragment kept or dropped.
+    pub fn pass<R>(
+        &mut self,
+        frame: &mut [u8],
+        now_us: u64,
+        channel: Channel,
+        controller: Controller,
+        f: impl FnOnce(&mut [u8]) -> R,
+    ) -> R {
+        match self.accept(frame, now_us, channel, controller) {
+            Verdict::Pass => f(frame),
+            Verdict::Complete { slot, len } => {
+                match self.slots.get_mut(slot).and_then(|s| s.buf.get_mut(..len)) {
+                    Some(datagram) => f(datagram),
+                    None => f(&mut []),
+                }
+            }
+            Verdict::Held | Verdict::Dropped(_) => f(&mut []),
+        }
+    }
+
+    /// The datagram a [`Verdict::Complete`] named (for callers of
+    /// [`Reassembler::accept`]); valid until the next frame.
+    pub fn datagram(&self, slot: usize, len: usize) -> Option<&[u8]> {
+        self.slots.get(slot)?.buf.get(..len)
+    }
+}
