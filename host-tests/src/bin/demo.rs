@@ -1,5 +1,6 @@
 //! `cargo demo [-- --tcp] [--cycles N] [--warm-up N] [--send NAME=MS]…
-//! [--reply NAME]`: the whole product in one command.
+//! [--reply NAME] [--show FIELD,… [--show-csv FILE] [--show-plot FILE]]`:
+//! the whole product in one command.
 //! Installs QEMU when it is missing, builds the sensor firmware for QEMU's
 //! `mps2-an500` board (Cortex-M7, LAN9118 Ethernet), boots it, warms it up,
 //! drives it with the robot-controller simulator (2,500 cycles at 4 ms: 10 s
@@ -24,6 +25,10 @@ struct Args {
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    if let Err(e) = args.run.check_show() {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
     match run_demo(&args.run) {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => f.report(),
