@@ -1,6 +1,5 @@
 //! `cargo demo [-- --tcp] [--cycles N] [--warm-up N] [--send NAME=MS]…
-//! [--reply NAME] [--show FIELD,… [--show-csv FILE] [--show-plot FILE]]`:
-//! the whole product in one command.
+//! [--reply NAME]`: the whole product in one command.
 //! Installs QEMU when it is missing, builds the sensor firmware for QEMU's
 //! `mps2-an500` board (Cortex-M7, LAN9118 Ethernet), boots it, warms it up,
 //! drives it with the robot-controller simulator (2,500 cycles at 4 ms: 10 s
