@@ -13,7 +13,7 @@
 //! sequence. A wrong or malformed reply fails in either.
 
 use crate::qemu::Qemu;
-use crate::robot::args::{plot_path, Properties};
+use crate::robot::args::{plot_path, Properties, ShowArgs};
 use crate::robot::report::Summary;
 use crate::robot::{run, RobotOptions};
 use std::io::{IsTerminal, Write};
@@ -49,6 +49,29 @@ pub struct RunArgs {
     pub oversize_attack: bool,
     #[command(flatten)]
     pub properties: Properties,
+    /// `--show FIELD,…`, `--show-csv`, `--show-plot`: the reply's values
+    /// as the simulator receives them (counted run only).
+    #[command(flatten)]
+    pub show: ShowArgs,
+}
+
+impl RunArgs {
+    /// Checks `--reply` and `--show` against the configured device before
+    /// anything is built (a bad name exits 2 like clap's errors).
+    pub fn check_show(&self) -> Result<(), String> {
+        if self.show.show.is_empty()
+            && self.show.show_csv.is_none()
+            && self.show.show_plot.is_none()
+        {
+            return Ok(());
+        }
+        let setup = Setup::new(self.tcp)?;
+        let mut o = RobotOptions::new(setup.gsi.clone(), ([127, 0, 0, 1], 9).into());
+        o.device = setup.device_name.clone();
+        self.properties.apply(&mut o);
+        self.show.apply(&mut o);
+        crate::robot::check_show(&o, &setup.device)
+    }
 }
 
 /// Exit status when the only failure was lateness: every reply came and
@@ -237,6 +260,7 @@ pub fn drive(
     // The transport the configuration says (the TCP demo's is TCP).
     opts.tcp = setup.device.channel.protocol == gsi_config::Protocol::Tcp;
     args.properties.apply(&mut opts);
+    args.show.apply(&mut opts);
     opts.plot = args.plot.clone();
     opts.progress = std::io::stderr().is_terminal();
     opts.device_log = Some(dev.live_lines());
@@ -361,6 +385,9 @@ fn warm_up(opts: &RobotOptions, device: &gsi_config::Device, cycles: u64) -> Res
     let mut w = opts.clone();
     w.cycles = cycles;
     w.plot = None;
+    w.show = Vec::new();
+    w.show_csv = None;
+    w.show_plot = None;
     w.progress = false;
     w.device_log = None;
     // Its state transitions are the counted run's to show.

@@ -4,12 +4,13 @@
 //! drives it over loopback and checks every reply against the layout, and
 //! the test asserts what the sensor saw and answered.
 //!
-//! Two patterns: the worked example `Aligned` as it is (the simulator's
+//! Three patterns: the worked example `Aligned` as it is (the simulator's
 //! verdict: every reply on time, with the right Id and a valid layout), and
 //! a recording sensor that keeps what each cycle gave it, to check the time
 //! alignment (T2) against the simulator's real timestamps: feedback ~8 ms
 //! before the message, and the paired sample within a few sampling
-//! periods of that instant.
+//! periods of that instant; and `--show`, the simulator's view of the
+//! reply's values, checked against what the sensor wrote.
 
 use host_tests::built_gsi;
 use host_tests::robot::{load, run, RobotOptions};
@@ -134,4 +135,137 @@ fn feedback_time_maps_to_device_time_and_pairs_a_sample_t2() {
         offsets.len()
     );
     assert!(offsets.iter().all(|o| o.abs() <= 5_000), "{offsets:?}");
+}
+
+/// Writes what the test checks `--show` against: from the robot message's
+/// Id, two reals (the first real array's X1, X2) and the status text.
+struct Echo;
+
+fn echoed(id: u32) -> (f64, f64, String) {
+    let x = id as f32;
+    (f64::from(x), f64::from(x * 0.25 - 7.5), format!("id {id}"))
+}
+
+impl<R: RobotSet, D: DeviceSet> Sensor<R, D> for Echo {
+    type Sample = f32;
+    type History = History<f32, 4>;
+    const SAMPLE_EVERY_US: u32 = 10_000;
+
+    fn new() -> Self {
+        Echo
+    }
+
+    fn sample(_: &mut impl Inputs, _: Instant) -> Option<f32> {
+        None
+    }
+
+    fn simulate(_: Instant) -> f32 {
+        0.0
+    }
+
+    fn fill(&mut self, _: &Self::History, _: &R, device: &mut D, cycle: &CycleInfo<'_>) {
+        let Some(id) = cycle.robot_id else { return };
+        let (a, b, text) = echoed(id);
+        fill_reals(device, cycle.sending, &[a as f32, b as f32]);
+        set_status(device, cycle.sending, &text);
+    }
+}
+
+/// `--show`: every answered message's shown values are the ones the
+/// sensor wrote for that message's Id (M4 attributes `X1`, `X2` of the
+/// first real array, the status text), in the run's records, the live
+/// lines (at most one per 100 ms) and `--show-csv`.
+#[test]
+fn show_gives_the_values_the_sensor_sent() {
+    use host_tests::robot::show::Cell;
+    let (gsi, name) = built_gsi();
+    let d = gsi_config::load(&gsi, name.as_deref()).expect("GSI").device;
+    let reply = d.sent().next().expect("a reply property");
+    let gsi_config::TypeRef::Record(r) = reply.ty else {
+        return; // A simple-typed reply: no array and status to fill.
+    };
+    let fields = &d.records[r].fields;
+    let real = gsi_config::TypeRef::Simple(gsi_config::SimpleType::Real);
+    let text = gsi_config::TypeRef::Simple(gsi_config::SimpleType::String);
+    let (Some(reals), Some(status)) = (
+        fields
+            .iter()
+            .find(|f| f.ty == real && f.size.is_some_and(|n| n >= 2)),
+        fields.iter().find(|f| f.ty == text && f.size.is_none()),
+    ) else {
+        return; // This layout has no real array or no status string.
+    };
+    let sensor = Background::start_sensor::<Echo>(false, layout::ENGINE_CONFIG, Source::Simulated)
+        .expect("sensor listening");
+    let csv = std::env::temp_dir().join(format!("rri-show-{}.csv", std::process::id()));
+    let mut o = RobotOptions::new(gsi, sensor.addr);
+    o.device = name;
+    o.cycles = 200;
+    // Lower case and the field's Name: looked up as RAPID does (G4).
+    o.show = vec![
+        format!("{}.x1", reals.name.to_lowercase()),
+        format!("{}.X2", reals.wire()),
+        status.name.clone(),
+    ];
+    o.show_csv = Some(csv.clone());
+    let mut log = Vec::new();
+    let (s, cycles) = run(&o, &d, &mut log).expect("simulation runs");
+    sensor.stop().expect("sensor runs");
+    assert!(s.passed(), "{:?}", s.failure());
+    assert_eq!(s.answered, 200);
+    for c in &cycles {
+        let (a, b, t) = echoed(c.id);
+        let shown = c
+            .shown
+            .as_ref()
+            .expect("shown values of an answered message");
+        assert_eq!(
+            shown.values,
+            [Cell::Num(a), Cell::Num(b), Cell::Text(t)],
+            "Id {}",
+            c.id
+        );
+        assert!(shown.ts.is_some(), "the reply's Ts");
+    }
+    // Live: each line's values are its Id's; throttled to one per 100 ms.
+    let log = String::from_utf8(log).expect("utf-8");
+    let lines: Vec<&str> = log.lines().filter(|l| l.contains("reply to Id ")).collect();
+    assert!(!lines.is_empty(), "{log}");
+    assert!(
+        lines.len() as f64 <= s.elapsed_s * 10.0 + 1.0,
+        "{} lines in {:.2} s",
+        lines.len(),
+        s.elapsed_s
+    );
+    for l in &lines {
+        let id: u32 = l
+            .split("reply to Id ")
+            .nth(1)
+            .and_then(|r| r.split(':').next())
+            .and_then(|n| n.parse().ok())
+            .expect("an Id");
+        let (a, b, t) = echoed(id);
+        let w = reals.wire();
+        let want = format!("{w}.X1={a}  {w}.X2={b}  {}={t}", status.wire());
+        assert!(l.ends_with(&want), "{l} / {want}");
+    }
+    // The CSV: a header and one row per reply, the values as sent.
+    let text = std::fs::read_to_string(&csv).expect("--show-csv written");
+    let _ = std::fs::remove_file(&csv);
+    let rows: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        rows[0],
+        format!(
+            "id,reply_s,reply_ts,{0}.X1,{0}.X2,{1}",
+            reals.wire(),
+            status.wire()
+        )
+    );
+    assert_eq!(rows.len(), 201);
+    for row in &rows[1..] {
+        let cols: Vec<&str> = row.split(',').collect();
+        let id: u32 = cols[0].parse().expect("id");
+        let (a, b, t) = echoed(id);
+        assert_eq!(cols[3..], [a.to_string(), b.to_string(), t], "{row}");
+    }
 }

@@ -31,6 +31,36 @@ impl Properties {
     }
 }
 
+/// `--show` and its outputs: the reply's values as the controller
+/// receives them ([`crate::show`]).
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct ShowArgs {
+    /// Show these fields of each reply (comma-separated or repeated), e.g. AppData.X1,EStr:
+    /// a field's Name or Alias, `.X1`/`.X`/`.J1` for one component; printed live (at most one
+    /// line per --show-every-ms), and in --show-csv / --show-plot.
+    #[arg(long, value_name = "FIELD,...", value_delimiter = ',')]
+    pub show: Vec<String>,
+    /// The shown values, one row per reply: id, reply_s, reply_ts, one column per field.
+    #[arg(long, value_name = "FILE", requires = "show")]
+    pub show_csv: Option<PathBuf>,
+    /// The shown values over time, one panel per numeric field (.svg or .png).
+    #[arg(long, value_name = "FILE", value_parser = plot_path, requires = "show")]
+    pub show_plot: Option<PathBuf>,
+    /// At most one live line of shown values per this many ms (0: every reply).
+    #[arg(long, value_name = "MS", default_value_t = 100)]
+    pub show_every_ms: u64,
+}
+
+impl ShowArgs {
+    /// Into the simulator's options.
+    pub fn apply(&self, o: &mut RobotOptions) {
+        o.show = self.show.clone();
+        o.show_csv = self.show_csv.clone();
+        o.show_plot = self.show_plot.clone();
+        o.show_every_ms = self.show_every_ms;
+    }
+}
+
 /// A period: a positive multiple of 4 ms (the controller's cycle).
 pub fn multiple_of_4(text: &str) -> Result<u32, String> {
     match text.trim().parse::<u32>() {

@@ -19,6 +19,8 @@ mod options;
 pub mod pcap;
 pub mod plot;
 pub mod report;
+pub mod show;
+mod show_plot;
 mod sim;
 mod stream;
 pub mod wire;
@@ -125,14 +127,8 @@ pub fn run(
     let sends = sends(opts, device)?;
     // One controller cycle of the simulation: every period is a multiple.
     let tick_ms = sends.iter().fold(0, |g, &(_, ms)| gcd(g, ms));
-    let reply_prop = match &opts.reply {
-        Some(name) => {
-            find_property(device, name, false).map_err(|e| format!("--reply {name}: {e}"))?
-        }
-        None => device.sent().next().ok_or(
-            "the configuration has no property the device sends (Flag ReadOnly or ReadWrite)",
-        )?,
-    };
+    let reply_prop = reply_property(opts, device)?;
+    let show = shown_fields(opts, device, reply_prop)?;
     let faults = Faults::new(opts.faults.clone(), opts.seed);
     if opts.tcp {
         if let Some(f) = faults.udp_only() {
@@ -156,6 +152,7 @@ pub fn run(
         .map(|d| d.as_micros() as u64)
         .unwrap_or(0);
     let mut sim = Sim::new(opts, device, reply_prop, link, tick_ms, log);
+    sim.show = show.clone();
     let sending: Vec<String> = sends
         .iter()
         .map(|(p, ms)| format!("{} every {ms} ms", p.wire()))
@@ -192,8 +189,77 @@ pub fn run(
     stream.release_held(&mut sim)?;
     sim.collect_last(tick);
     let (mut s, cycles, packets) = sim.finish(&sends);
-    write_outputs(opts, &cycles, &packets, &mut s, tick_ms, start_unix_us);
+    let shown = show.as_ref();
+    write_outputs(
+        opts,
+        &cycles,
+        &packets,
+        shown,
+        &mut s,
+        tick_ms,
+        start_unix_us,
+    );
     Ok((s, cycles))
+}
+
+/// The reply property `--reply` names (else the device's first).
+fn reply_property<'d>(opts: &RobotOptions, device: &'d Device) -> Result<&'d Property, String> {
+    match &opts.reply {
+        Some(name) => {
+            find_property(device, name, false).map_err(|e| format!("--reply {name}: {e}"))
+        }
+        None => device.sent().next().ok_or_else(|| {
+            "the configuration has no property the device sends (Flag ReadOnly or ReadWrite)"
+                .to_string()
+        }),
+    }
+}
+
+/// `--show`'s columns for the reply property, `None` without `--show`;
+/// an unknown field is an error listing the ones there are.
+fn shown_fields(
+    opts: &RobotOptions,
+    device: &Device,
+    reply: &Property,
+) -> Result<Option<show::Show>, String> {
+    if opts.show.is_empty() {
+        if opts.show_csv.is_some() || opts.show_plot.is_some() {
+            return Err("--show-csv and --show-plot need --show FIELD,...".into());
+        }
+        return Ok(None);
+    }
+    show::Show::resolve(device, reply, &opts.show).map(Some)
+}
+
+/// Checks `--reply` and `--show` against the device before anything runs
+/// (`cargo demo` calls it before building the firmware).
+pub fn check_show(opts: &RobotOptions, device: &Device) -> Result<(), String> {
+    let reply = reply_property(opts, device)?;
+    shown_fields(opts, device, reply).map(|_| ())
+}
+
+/// `--show-csv` and `--show-plot`; failures join the summary's output
+/// errors.
+fn write_shown(
+    opts: &RobotOptions,
+    show: Option<&show::Show>,
+    cycles: &[Cycle],
+    s: &mut Summary,
+    start_unix_us: u64,
+) {
+    let Some(show) = show else { return };
+    if let Some(p) = &opts.show_csv {
+        if let Err(e) = show::write_csv(p, show, cycles) {
+            s.output_errors
+                .push(format!("--show-csv {}: {e}", p.display()));
+        }
+    }
+    if let Some(p) = &opts.show_plot {
+        if let Err(e) = show_plot::write(p, show, cycles, s, start_unix_us) {
+            s.output_errors
+                .push(format!("--show-plot {}: {e}", p.display()));
+        }
+    }
 }
 
 /// Every output is checked before the first message, so a bad path costs
@@ -204,6 +270,8 @@ fn check_outputs(opts: &RobotOptions) -> Result<(), String> {
         ("--plot", &opts.plot),
         ("--pcap", &opts.pcap),
         ("--json", &opts.json),
+        ("--show-csv", &opts.show_csv),
+        ("--show-plot", &opts.show_plot),
     ] {
         if let Some(p) = path {
             std::fs::File::create(p).map_err(|e| format!("{flag} {}: {e}", p.display()))?;
@@ -211,6 +279,9 @@ fn check_outputs(opts: &RobotOptions) -> Result<(), String> {
     }
     if opts.plot.is_some() {
         plot::ensure_font().map_err(|e| format!("--plot: {e}"))?;
+    }
+    if opts.show_plot.is_some() {
+        plot::ensure_font().map_err(|e| format!("--show-plot: {e}"))?;
     }
     Ok(())
 }
@@ -221,6 +292,7 @@ fn write_outputs(
     opts: &RobotOptions,
     cycles: &[Cycle],
     packets: &[Packet],
+    show: Option<&show::Show>,
     s: &mut Summary,
     tick_ms: u32,
     start_unix_us: u64,
@@ -243,6 +315,7 @@ fn write_outputs(
         }
     }
     s.output_errors = errors;
+    write_shown(opts, show, cycles, s, start_unix_us);
     if let Some(p) = &opts.json {
         if let Err(e) = report::write_json(p, s) {
             s.output_errors.push(format!("--json {}: {e}", p.display()));

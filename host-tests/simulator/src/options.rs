@@ -30,6 +30,16 @@ pub struct RobotOptions {
     pub plot: Option<PathBuf>,
     pub pcap: Option<PathBuf>,
     pub json: Option<PathBuf>,
+    /// `--show FIELD,…`: reply fields to show (see [`crate::show`]);
+    /// empty: replies are checked, their values not kept.
+    pub show: Vec<String>,
+    /// `--show-csv FILE`: the shown values, one row per reply.
+    pub show_csv: Option<PathBuf>,
+    /// `--show-plot FILE`: the shown values over time (.svg or .png).
+    pub show_plot: Option<PathBuf>,
+    /// `--show-every-ms`: at most one live line per this many ms (0: every
+    /// reply).
+    pub show_every_ms: u64,
     pub faults: Vec<Fault>,
     pub seed: u64,
     /// Id of the first message (to test the u32 wrap, S3).
@@ -58,6 +68,10 @@ impl RobotOptions {
             plot: None,
             pcap: None,
             json: None,
+            show: Vec::new(),
+            show_csv: None,
+            show_plot: None,
+            show_every_ms: 100,
             faults: Vec::new(),
             seed: 1,
             first_id: 1,

@@ -40,7 +40,7 @@ pub fn ensure_font() -> Result<(), String> {
 
 /// `YYYY-MM-DD HH:MM UTC` of a Unix time in µs (civil-from-days, so no
 /// date crate is needed for one caption).
-fn utc(unix_us: u64) -> String {
+pub(crate) fn utc(unix_us: u64) -> String {
     let secs = unix_us / 1_000_000;
     let (days, rem) = ((secs / 86_400) as i64, secs % 86_400);
     let z = days + 719_468;
@@ -157,7 +157,7 @@ fn whole(v: &f64) -> String {
 }
 
 /// Tick labels of seconds: `0.5`, `2` (not `2.0`).
-fn seconds(v: &f64) -> String {
+pub(crate) fn seconds(v: &f64) -> String {
     let s = format!("{v:.1}");
     s.strip_suffix(".0").map(String::from).unwrap_or(s)
 }

@@ -18,6 +18,8 @@ pub struct Cycle {
     pub dropped_by_fault: bool,
     /// Which `--send` property (position in the list; 0 by default).
     pub property: usize,
+    /// With `--show`: the shown values of the reply that answered it.
+    pub shown: Option<crate::show::Shown>,
 }
 
 impl Cycle {

@@ -5,6 +5,7 @@
 use crate::link::{Event, Link};
 use crate::pcap::Packet;
 use crate::report::{Cycle, Latency, PropertyFigures, Summary};
+use crate::show::{self, Show, Shown};
 use crate::{wire, RobotOptions};
 use gsi_config::{Device, Property};
 use std::collections::HashMap;
@@ -51,6 +52,11 @@ pub(crate) struct Sim<'a> {
     pub(crate) packets: Vec<Packet>,
     pub(crate) log: &'a mut dyn Write,
     pub(crate) bar: indicatif::ProgressBar,
+    /// `--show`: the columns to take from each answering reply; `None`:
+    /// replies are not parsed beyond their checks.
+    pub(crate) show: Option<Show>,
+    /// When the last live line of shown values was printed.
+    pub(crate) shown_at: Option<Instant>,
 }
 
 impl<'a> Sim<'a> {
@@ -107,6 +113,8 @@ impl<'a> Sim<'a> {
             packets: Vec::new(),
             log,
             bar,
+            show: None,
+            shown_at: None,
         }
     }
 
@@ -391,6 +399,9 @@ impl Sim<'_> {
                 self.sup.late_in_row += 1;
             }
             self.sup.last_answer = Some(at);
+            if self.show.is_some() {
+                self.take_shown(bytes, index, reply.id, at);
+            }
             if !self.sup.operating && self.sup.tripped.is_none() {
                 self.sup.operating = true;
                 self.transition("OPERATING (first answer)");
@@ -398,6 +409,32 @@ impl Sim<'_> {
         }
         if self.waiting.get(&reply.id).is_some_and(|w| w.expected == 0) {
             self.waiting.remove(&reply.id);
+        }
+    }
+
+    /// `--show`: keeps the shown values of the reply answering message
+    /// `index`, and prints them unless a line was printed less than
+    /// `--show-every-ms` ago.
+    fn take_shown(&mut self, bytes: &[u8], index: usize, id: u32, at: Instant) {
+        let Some(show) = &self.show else { return };
+        let Some((ts, values)) = show.extract(bytes) else {
+            return;
+        };
+        let every = Duration::from_millis(self.opts.show_every_ms);
+        if self
+            .shown_at
+            .is_none_or(|last| at.duration_since(last) >= every)
+        {
+            self.shown_at = Some(at);
+            let text = show::line(show, id, &values);
+            let t = at.duration_since(self.start).as_secs_f64();
+            let log = &mut self.log;
+            self.bar.suspend(|| {
+                let _ = writeln!(log, "[{t:9.3}s] {text}");
+            });
+        }
+        if let Some(c) = self.cycles.get_mut(index) {
+            c.shown = Some(Shown { ts, values });
         }
     }
 

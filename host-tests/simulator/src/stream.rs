@@ -80,6 +80,7 @@ impl<'d> Stream<'d> {
             reply_us: None,
             dropped_by_fault: plan.drop,
             property: which,
+            shown: None,
         });
         if plan.drop {
             sim.s.injected.dropped += 1;

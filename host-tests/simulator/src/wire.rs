@@ -135,16 +135,17 @@ pub struct Reply {
     pub ts: f64,
 }
 
+/// One element of a reply: its name, attributes, text and children.
 #[derive(Default)]
-struct Element {
-    name: String,
-    attrs: Vec<(String, String)>,
-    text: String,
-    children: Vec<Element>,
+pub(crate) struct Element {
+    pub(crate) name: String,
+    pub(crate) attrs: Vec<(String, String)>,
+    pub(crate) text: String,
+    pub(crate) children: Vec<Element>,
 }
 
 /// A small tree of the reply (std side: allocation is fine here).
-fn tree(text: &str) -> Result<Element, String> {
+pub(crate) fn tree(text: &str) -> Result<Element, String> {
     use xmlparser::{ElementEnd, Token, Tokenizer};
     let mut stack: Vec<Element> = Vec::new();
     let mut root = None;

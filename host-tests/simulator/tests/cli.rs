@@ -58,6 +58,18 @@ fn cli_bad_arguments_and_bad_gsi_exit_2_with_a_message() {
             vec!["--gsi", "/nonexistent/GSI", "--to", "127.0.0.1:9"],
             "cannot read",
         ),
+        (
+            vec!["--gsi", gsi, "--to", "127.0.0.1:9", "--show", "AppData.X1,Distance"],
+            "--show Distance: no such field in the reply <SensData> of device AnyDevice; available: EStr, AppData.X1,",
+        ),
+        (
+            vec!["--gsi", gsi, "--to", "127.0.0.1:9", "--show-csv", "x.csv"],
+            "--show",
+        ),
+        (
+            vec!["--gsi", gsi, "--to", "127.0.0.1:9", "--show", "EStr", "--show-plot", "x.gif"],
+            ".svg or .png",
+        ),
     ] {
         let out = robot_cli(&args);
         let stderr = String::from_utf8_lossy(&out.stderr);

@@ -27,6 +27,10 @@ struct Args {
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    if let Err(e) = args.run.check_show() {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
     match run_demo(&args.run) {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => f.report(),

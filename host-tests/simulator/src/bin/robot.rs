@@ -1,6 +1,7 @@
 //! `cargo robot -- --gsi DIR [--device NAME] --to ADDR [--cycles N]
 //! [--rate-ms 4] [--send NAME=MS]… [--reply NAME] [--tcp] [--csv FILE]
-//! [--plot FILE.svg|.png] [--pcap FILE] [--json FILE] [--fault SPEC]…`
+//! [--plot FILE.svg|.png] [--pcap FILE] [--json FILE] [--fault SPEC]…
+//! [--show FIELD,… [--show-csv FILE] [--show-plot FILE.svg|.png]]`
 //!
 //! Plays the robot controller against any RRI sensor. Exit status 0 if and
 //! only if supervision never tripped, every reply was correct and every
@@ -8,7 +9,7 @@
 //! arguments (clap's usage errors) or a bad GSI folder.
 
 use clap::Parser;
-use rri_robot::args::{multiple_of_4, plot_path, Properties};
+use rri_robot::args::{multiple_of_4, plot_path, Properties, ShowArgs};
 use rri_robot::fault::{Fault, SPECS, UDP_ONLY};
 use rri_robot::{load, run, RobotOptions};
 use std::io::IsTerminal;
@@ -43,6 +44,8 @@ struct Args {
     rate_ms: u32,
     #[command(flatten)]
     properties: Properties,
+    #[command(flatten)]
+    show: ShowArgs,
     /// TCP instead of UDP (M10 framing).
     #[arg(long)]
     tcp: bool,
@@ -81,6 +84,7 @@ fn options(a: Args) -> RobotOptions {
     o.cycles = a.cycles;
     o.rate_ms = a.rate_ms;
     a.properties.apply(&mut o);
+    a.show.apply(&mut o);
     o.tcp = a.tcp;
     o.csv = a.csv;
     o.plot = a.plot;
