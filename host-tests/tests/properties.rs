@@ -287,8 +287,13 @@ fn end_to_end(tcp: bool) {
         property: 0, // RsSensData
         period_ms: 32,
     }];
+    // TimeOut 2 s on both sides (the GSI says 100 ms): in lock-step, a
+    // loaded host's stall of either thread for 100 ms would trip
+    // supervision though every message is answered; S1's TimeOut has its
+    // own tests (simulator.rs, the engine's).
     let config = Config {
         periodic: &PERIODIC,
+        timeout_ms: 2_000,
         ..config()
     };
     let sensor = Background::start_layout::<
@@ -313,7 +318,8 @@ fn end_to_end(tcp: bool) {
         ("Speed".into(), 64),
     ];
     o.reply = Some("Shared".into());
-    let device = host_tests::robot::load(&o).expect("every-type loads");
+    let mut device = host_tests::robot::load(&o).expect("every-type loads");
+    device.supervision.timeout_ms = 2_000;
     let (s, cycles) = run(&o, &device, &mut std::io::sink()).expect("simulation runs");
     let report = sensor.stop().expect("sensor runs");
 
