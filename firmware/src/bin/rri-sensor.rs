@@ -113,6 +113,11 @@ fn main() -> ! {
         layout::CHANNEL_PORT,
         if TCP { "TCP" } else { "UDP" },
     );
+    defmt::info!(
+        "sensor: {=str} from {=str}",
+        rri_firmware::sensors::active_name(),
+        rri_firmware::sensors::ACTIVE_FILE
+    );
     #[cfg(feature = "bench")]
     for (name, message) in rri_firmware::bench::CODEC_CORPUS {
         let c = rri_firmware::bench::compare_codecs(message, 20, board::cycle_counter);

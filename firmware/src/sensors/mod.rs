@@ -18,5 +18,12 @@ include!(concat!(env!("OUT_DIR"), "/sensor.rs"));
 /// The sensor of the file `RRI_SENSOR` names, which every board runs.
 pub type Active = chosen::ThisSensor;
 
+/// The active sensor's type, as the start-up log names it beside
+/// [`ACTIVE_FILE`]: an integrator sees which sensor a board or
+/// `cargo sensor-host` runs without reading the build's environment.
+pub fn active_name() -> &'static str {
+    core::any::type_name::<Active>()
+}
+
 #[cfg(test)]
 mod tests;
