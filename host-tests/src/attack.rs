@@ -6,13 +6,13 @@
 //! raw socket (root): the first fragment of a set alone, a middle one
 //! alone, one alone far past anything a layout accepts.
 
-use crate::qemu_bench::Flooded;
+use crate::qemu_bench::{drain_replies, Flooded, Pacer};
 use std::net::{Ipv4Addr, SocketAddrV4, UdpSocket};
 use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Bytes of IP payload in each crafted fragment (one full Ethernet frame).
 const FRAGMENT: usize = 1480;
@@ -164,7 +164,7 @@ pub fn fragment_flood(
         let mut buf = [0u8; 2048];
         let past = vec![b'<'; max_receive_len + 1];
         let middle = vec![b' '; FRAGMENT];
-        let mut next = Instant::now();
+        let mut pacer = Pacer::new(period);
         // The kernel numbers every crafted fragment (see `fragment`): each
         // is a set of its own.
         let ident = 0;
@@ -191,19 +191,11 @@ pub fn fragment_flood(
                     .is_ok(),
             };
             sent[turn] += u64::from(ok);
-            while udp.recv_from(&mut buf).is_ok() {
-                replies += 1;
-            }
-            next += period;
-            match next.checked_duration_since(Instant::now()) {
-                Some(wait) => std::thread::sleep(wait),
-                None => next = Instant::now(),
-            }
+            replies += drain_replies(&udp, &mut buf);
+            pacer.wait();
         }
         std::thread::sleep(Duration::from_millis(200));
-        while udp.recv_from(&mut buf).is_ok() {
-            replies += 1;
-        }
+        replies += drain_replies(&udp, &mut buf);
         Flooded {
             sent: KINDS.iter().map(|k| k.to_string()).zip(sent).collect(),
             replies,

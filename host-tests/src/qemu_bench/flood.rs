@@ -42,6 +42,54 @@ impl Flooded {
     }
 }
 
+/// The schedule of a flooder thread: one send every `period`, as close to
+/// it as Linux allows. A thread that fell behind (the host stalled it)
+/// starts again from now rather than sending a burst to catch up: the
+/// flood keeps its rate, which is what the device is measured against.
+#[derive(Clone, Copy, Debug)]
+pub struct Pacer {
+    next: std::time::Instant,
+    period: std::time::Duration,
+}
+
+impl Pacer {
+    /// The first send is due now.
+    pub fn new(period: std::time::Duration) -> Self {
+        Pacer {
+            next: std::time::Instant::now(),
+            period,
+        }
+    }
+
+    /// After a send at `now`: how long to wait for the next one (`None`:
+    /// behind schedule, due at once, the schedule restarted from `now`).
+    pub fn after_send(&mut self, now: std::time::Instant) -> Option<std::time::Duration> {
+        self.next += self.period;
+        let wait = self.next.checked_duration_since(now);
+        if wait.is_none() {
+            self.next = now;
+        }
+        wait
+    }
+
+    /// After a send: sleeps until the next one is due.
+    pub fn wait(&mut self) {
+        if let Some(wait) = self.after_send(std::time::Instant::now()) {
+            std::thread::sleep(wait);
+        }
+    }
+}
+
+/// Reads every datagram waiting on the flooder's non-blocking `socket`:
+/// how many there were (replies the device should never have sent).
+pub fn drain_replies(socket: &std::net::UdpSocket, buf: &mut [u8]) -> u64 {
+    let mut replies = 0;
+    while socket.recv_from(buf).is_ok() {
+        replies += 1;
+    }
+    replies
+}
+
 /// A flooder thread: sends `datagrams` in turn to `to`, one every `period`,
 /// from a socket bound to `from`, until `stop`; counts what it sent and
 /// any reply (`cargo qemu-bench`'s second port, `cargo flood`'s stranger
@@ -54,34 +102,26 @@ pub fn flood(
     stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
 ) -> Result<std::thread::JoinHandle<Flooded>, String> {
     use std::sync::atomic::Ordering;
-    use std::time::{Duration, Instant};
+    use std::time::Duration;
     let socket = std::net::UdpSocket::bind(from).map_err(|e| format!("bind {from}: {e}"))?;
     socket.set_nonblocking(true).map_err(|e| e.to_string())?;
     Ok(std::thread::spawn(move || {
         let mut sent = vec![0u64; datagrams.len()];
         let mut replies = 0u64;
         let mut buf = [0u8; 2048];
-        let mut next = Instant::now();
+        let mut pacer = Pacer::new(period);
         let mut turn = (0..datagrams.len()).cycle();
         while !stop.load(Ordering::Relaxed) {
             let Some(i) = turn.next() else { break };
             if socket.send_to(&datagrams[i].1, to).is_ok() {
                 sent[i] += 1;
             }
-            while socket.recv_from(&mut buf).is_ok() {
-                replies += 1;
-            }
-            next += period;
-            match next.checked_duration_since(Instant::now()) {
-                Some(wait) => std::thread::sleep(wait),
-                None => next = Instant::now(),
-            }
+            replies += drain_replies(&socket, &mut buf);
+            pacer.wait();
         }
         // Late replies.
         std::thread::sleep(Duration::from_millis(200));
-        while socket.recv_from(&mut buf).is_ok() {
-            replies += 1;
-        }
+        replies += drain_replies(&socket, &mut buf);
         let names = datagrams.into_iter().map(|(n, _)| n);
         Flooded {
             sent: names.zip(sent).collect(),
@@ -100,6 +140,21 @@ pub fn flood_datagram() -> Vec<u8> {
 mod tests {
     use super::*;
     use crate::layouts::anydevice as layout;
+
+    /// On schedule, the pacer waits out the period; behind it, it sends
+    /// at once and restarts the schedule (no catch-up burst).
+    #[test]
+    fn the_pacer_keeps_the_rate_and_never_bursts() {
+        use std::time::Duration;
+        let ms = Duration::from_millis;
+        let mut p = Pacer::new(ms(2));
+        let t0 = p.next;
+        assert_eq!(p.after_send(t0), Some(ms(2)));
+        assert_eq!(p.after_send(t0 + ms(3)), Some(ms(1)));
+        // Stalled for 10 ms: due at once, once; then paced from there.
+        assert_eq!(p.after_send(t0 + ms(14)), None);
+        assert_eq!(p.after_send(t0 + ms(14)), Some(ms(2)));
+    }
 
     #[test]
     fn flood_datagram_is_rejected_at_once() {

@@ -7,7 +7,7 @@ mod corpus;
 mod flood;
 
 pub use corpus::{hostile, realistic, templated, Input};
-pub use flood::{flood, flood_datagram, flood_datagrams, Flooded, FLOOD_LEN};
+pub use flood::{drain_replies, flood, flood_datagram, flood_datagrams, Flooded, Pacer, FLOOD_LEN};
 
 use serde::{Deserialize, Serialize};
 
