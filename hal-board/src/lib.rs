@@ -18,6 +18,14 @@
 //! the receive ring's size plain arithmetic: all unit-tested on the host.
 #![cfg_attr(not(test), no_std)]
 
+// The host tests' critical sections (embassy-sync's mutex in the drivers'
+// wakers) need an implementation linked in: critical-section's `std` one.
+// Without this `cargo test -p hal-board` alone failed to link
+// (`_critical_section_1_0_acquire`); in the workspace another crate had
+// linked it.
+#[cfg(test)]
+use critical_section as _;
+
 pub mod io;
 pub mod lan8742;
 pub mod lan9118;
