@@ -19,6 +19,8 @@
 //! - `RRI_NETMASK` (prefix length 0..=32 or a dotted mask, default 24) and
 //!   `RRI_GATEWAY` (IPv4, default none): the boards' network besides the
 //!   device address from Description.xml (`$OUT_DIR/network.rs`).
+//! - `RRI_HTTP_PORT`: the diagnostics service's TCP port on the boards
+//!   (default 80; `0` compiles it out: cfg `rri_http` is set otherwise).
 //! - `RRI_SENSOR`: the integrator's sensor, one Rust file (relative paths
 //!   from the workspace root; default `firmware/src/sensors/distance.rs`,
 //!   the demo's), made module `sensors::chosen` (`$OUT_DIR/sensor.rs`).
@@ -47,6 +49,7 @@ fn main() {
         "RRI_PERIODIC",
         "RRI_NETMASK",
         "RRI_GATEWAY",
+        "RRI_HTTP_PORT",
         "RRI_SENSOR",
     ] {
         println!("cargo:rerun-if-env-changed={var}");
@@ -60,7 +63,9 @@ fn main() {
     let time_decimals = decimals("RRI_TIME_DECIMALS", &mut errors);
     let controller = controller(&mut errors);
     let send_period_ms = send_period(&mut errors);
-    let network = network(&mut errors);
+    let mut network = network(&mut errors);
+    network.push_str(&http_port(&mut errors));
+    network.push_str(&commit(&workspace));
     let sensor = sensor(&workspace, &manifest, &mut errors);
 
     println!("cargo:rerun-if-changed={}", gsi_dir.display());
@@ -191,6 +196,57 @@ fn sensor(workspace: &Path, manifest: &Path, errors: &mut Vec<String>) -> String
         return String::new();
     };
     format!("{header}#[path = {text:?}]\npub mod chosen;\n")
+}
+
+/// `RRI_HTTP_PORT` (default 80, 0 = the service compiled out: no cfg
+/// `rri_http`), as a constant for `network.rs`.
+fn http_port(errors: &mut Vec<String>) -> String {
+    println!("cargo::rustc-check-cfg=cfg(rri_http)");
+    let port = match setting("RRI_HTTP_PORT") {
+        None => 80,
+        Some(v) => v.trim().parse::<u16>().unwrap_or_else(|_| {
+            errors.push(format!(
+                "RRI_HTTP_PORT={v}: expected a TCP port 1..=65535, or 0 to leave the diagnostics service out"
+            ));
+            80
+        }),
+    };
+    if port != 0 {
+        println!("cargo:rustc-cfg=rri_http");
+    }
+    format!(
+        "/// `RRI_HTTP_PORT`: the diagnostics service's TCP port (default 80; 0:\n\
+         /// not compiled in).\n\
+         pub const HTTP_PORT: u16 = {port};\n"
+    )
+}
+
+/// The commit the firmware is built from (`git describe --always`), or
+/// `unknown` outside a git checkout, for the diagnostics. (Not
+/// `--dirty`: only a commit reruns this script, so an edit since would
+/// not show.)
+fn commit(workspace: &Path) -> String {
+    let git = workspace.join(".git");
+    for watched in ["HEAD", "logs/HEAD"] {
+        let path = git.join(watched);
+        if path.exists() {
+            println!("cargo:rerun-if-changed={}", path.display());
+        }
+    }
+    let described = std::process::Command::new("git")
+        .args(["describe", "--always", "--abbrev=12"])
+        .current_dir(workspace)
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .and_then(|o| String::from_utf8(o.stdout).ok())
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "unknown".to_string());
+    format!(
+        "/// The commit the firmware was built from (`git describe --always`).\n\
+         pub const COMMIT: &str = {described:?};\n"
+    )
 }
 
 /// `RRI_NETMASK` and `RRI_GATEWAY`, as Rust constants for `network.rs`.

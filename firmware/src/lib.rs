@@ -46,6 +46,7 @@ pub mod baseline;
 pub mod bench;
 pub mod codec;
 pub mod demo;
+pub mod diag;
 pub mod engine;
 pub mod fragments;
 pub mod layout;

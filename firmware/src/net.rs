@@ -53,12 +53,14 @@ pub trait Monitor<R: RobotSet, D: DeviceSet> {
     fn count(&self) -> u32 {
         0
     }
-    /// A robot message of `bytes` bytes was handled with `outcome`;
-    /// `counts` are [`Monitor::count`] before and after the engine.
+    /// The robot message `message` from `from` was handled with
+    /// `outcome`; `counts` are [`Monitor::count`] before and after the
+    /// engine.
     fn message(
         &mut self,
         _engine: &Engine<R, D>,
-        _bytes: usize,
+        _message: &[u8],
+        _from: Endpoint,
         _outcome: &Outcome,
         _counts: (u32, u32),
     ) {
@@ -246,7 +248,7 @@ where
                         send_datagram(&socket, engine, reply, to, len).await;
                     }
                     exchange(link, engine);
-                    monitor.message(engine, len, &outcome, (before, after));
+                    monitor.message(engine, bytes, from, &outcome, (before, after));
                 }
                 Either::First(Err(RecvError::Truncated)) => engine.datagram_too_long(),
                 Either::Second(()) => {
@@ -351,7 +353,6 @@ where
                             rest = unused;
                             let Some(message) = message else { continue };
                             completed = true;
-                            let bytes = message.len();
                             let before = monitor.count();
                             let outcome =
                                 engine.on_message(app, clock, from, message, received, reply);
@@ -362,7 +363,7 @@ where
                                 }
                             }
                             exchange(link, engine);
-                            monitor.message(engine, bytes, &outcome, (before, after));
+                            monitor.message(engine, message, from, &outcome, (before, after));
                         }
                         guard.received(received, completed, framer.pending());
                     }

@@ -10,7 +10,7 @@
 //! `RobotProperty` / `DeviceProperty` enums give them names).
 
 use crate::codec::{decode, BufferTooSmall, DecodeError, Decoded, Encoded};
-use crate::schema::{FieldMut, FieldRef, Format, MessageCodec};
+use crate::schema::{FieldMut, FieldRef, Format, MessageCodec, PropertyInfo};
 use crate::value::Time;
 
 /// Most properties one direction may have. The engine keeps an Id tracker
@@ -24,6 +24,8 @@ pub use rri_vocabulary::MAX_PROPERTIES;
 pub trait RobotSet: Default {
     /// Root element names (M1), by property index.
     const WIRE_NAMES: &'static [&'static str];
+    /// Each property with its fields, for the diagnostics.
+    const INFO: &'static [PropertyInfo];
     /// The longest message of any of them: the receive buffer's size.
     const MAX_RECEIVE_LEN: usize;
 
@@ -45,6 +47,8 @@ pub trait RobotSet: Default {
 pub trait DeviceSet: Default {
     /// Root element names (M1), by property index.
     const WIRE_NAMES: &'static [&'static str];
+    /// Each property with its fields, for the diagnostics.
+    const INFO: &'static [PropertyInfo];
     /// The longest message of any of them: the send buffer's size.
     const MAX_SEND_LEN: usize;
 

@@ -163,3 +163,20 @@ pub trait MessageCodec: Message {
         None
     }
 }
+
+/// One property as the diagnostics describe it (generated as
+/// `layout::RECEIVED_INFO` and `layout::SENT_INFO`): its name, its type as
+/// Configuration.xml gives it, and the fields of a record with theirs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PropertyInfo {
+    /// `Name`.
+    pub name: &'static str,
+    /// The root element's name on the wire (`Alias`, else `Name`).
+    pub wire: &'static str,
+    /// Its type: a record's or enum's name, or a G5 type (`real[18]` for
+    /// an array).
+    pub ty: &'static str,
+    /// A record's fields: element name and type, in Configuration order
+    /// (empty for a simple type).
+    pub fields: &'static [(&'static str, &'static str)],
+}

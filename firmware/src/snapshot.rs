@@ -7,7 +7,8 @@
 //! bytes under a critical section, after the reply is on its way) and the
 //! watchers read the latest copy whenever they like.
 
-use crate::engine::{Endpoint, Engine, ErrorCode, SensorState, Stats};
+use crate::engine::{Endpoint, Engine, ErrorCode, Instant, PropertySeen, SensorState, Stats};
+use crate::properties::MAX_PROPERTIES;
 use crate::properties::{DeviceSet, RobotSet};
 use core::cell::Cell;
 use critical_section::Mutex;
@@ -26,6 +27,10 @@ pub struct Snapshot {
     /// Turns of the cycle loop (messages and polls): the watchdog is fed
     /// only while this moves.
     pub heartbeat: u32,
+    /// When the last robot message that decoded arrived.
+    pub last_message: Option<Instant>,
+    /// Per robot property: messages decoded and their interval (M11).
+    pub robot_seen: [PropertySeen; MAX_PROPERTIES],
 }
 
 impl Snapshot {
@@ -37,6 +42,8 @@ impl Snapshot {
             peer: engine.peer(),
             stats: engine.stats(),
             heartbeat,
+            last_message: engine.last_message(),
+            robot_seen: engine.robot_seen(),
         }
     }
 }
@@ -64,6 +71,11 @@ impl Published {
                 peer: None,
                 stats: Stats::ZERO,
                 heartbeat: 0,
+                last_message: None,
+                robot_seen: [PropertySeen {
+                    messages: 0,
+                    interval_us: 0,
+                }; MAX_PROPERTIES],
             })),
         }
     }

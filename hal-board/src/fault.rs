@@ -9,6 +9,10 @@
 //! the board does (`board::reset`: after the log has had time to leave,
 //! on the NUCLEO boards).
 //!
+//! The PC and LR are also kept across the reset
+//! ([`crate::reset`]): the next start reports them (the diagnostics
+//! page's "last reset").
+//!
 //! What it cannot catch: a fault while the core stacks the exception
 //! frame for HardFault itself (a stack overflow past the bottom of RAM,
 //! which flip-link's layout turns into a fault) locks the core up; the
@@ -36,6 +40,7 @@ unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
         scb.mmfar.read(),
         scb.bfar.read()
     );
+    crate::reset::ram::note(|r| r.fault(frame.pc(), frame.lr()));
     crate::board::reset()
 }
 

@@ -31,28 +31,54 @@ pub mod lan8742;
 pub mod lan9118;
 pub mod mac;
 pub mod mpu;
+pub mod reset;
 pub mod rx_ring;
 
 /// What the network chip itself counted on the receive side, for the
-/// firmware's counter line: frames it lost before the driver could take
-/// them are invisible everywhere else. Each board's `nic_counters()`
-/// returns them, or `None` where the board does not read them.
+/// firmware's counter line and the diagnostics: frames it lost before the
+/// driver could take them are invisible everywhere else. Each board's
+/// `nic_counters()` returns them, or `None` where the board does not read
+/// them.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct NicCounters {
-    /// Frames the driver took from the chip and handed to the stack.
+    /// Frames the driver took from the chip and handed to the stack (the
+    /// LAN9118 driver's count; 0 on the STM32 boards, whose driver is
+    /// embassy's: see `fifo`).
     pub rx_frames: u32,
-    /// Frames the chip dropped (its own counter; LAN9118: `RX_DROP`).
+    /// Frames the chip dropped (its own counters; LAN9118: `RX_DROP`;
+    /// STM32F7: the Ethernet DMA's `ETH_DMAMFBOCR` missed frames, by the
+    /// controller and by the application; STM32H7: `DMACMFCR` and
+    /// `MTLRXQMPOCR`'s missed and overflow packets).
     pub rx_dropped: u32,
     /// Times the chip reported its receive status FIFO full (LAN9118:
     /// `INT_STS.RSFF`, seen by the interrupt handler).
     pub status_full: u32,
     /// The most bytes the receive data FIFO held when the driver looked.
     pub fifo_max: u32,
+    /// Whether `rx_frames`, `status_full` and `fifo_max` are read (the
+    /// LAN9118's driver is ours and counts them; embassy-stm32's does
+    /// not, so there only `rx_dropped` is a reading).
+    pub fifo: bool,
+}
+
+/// The Ethernet link as the board sees it, for the diagnostics.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LinkInfo {
+    /// Up: the network stack may use it.
+    pub up: bool,
+    /// The negotiated speed in Mbit/s, where the board reads it.
+    pub speed_mbps: Option<u16>,
+    /// Full duplex, where the board reads it.
+    pub full_duplex: Option<bool>,
 }
 
 /// Stack painting and its high-water mark (every board).
 #[cfg(all(any(feature = "mps2-an500", feature = "stm32"), target_os = "none"))]
 pub mod stack;
+
+/// `.diag_ram`, zeroed at start-up (every board).
+#[cfg(all(any(feature = "mps2-an500", feature = "stm32"), target_os = "none"))]
+pub mod sections;
 
 /// The HardFault handler (every board).
 #[cfg(all(any(feature = "mps2-an500", feature = "stm32"), target_os = "none"))]

@@ -106,6 +106,9 @@ pub struct Board {
     /// Seed for the network stack (TCP sequence numbers, ports). QEMU has no
     /// RNG; a constant keeps runs (and the bench) repeatable.
     pub seed: u64,
+    /// Why the board started (QEMU has no reset flags: the crash record
+    /// alone tells, [`crate::reset`]).
+    pub reset: crate::reset::Report,
 }
 
 /// Why the board could not start.
@@ -113,6 +116,8 @@ pub type InitError = lan9118::InitError;
 
 /// Starts the clocks and the NIC. Call once, first.
 pub fn init() -> Result<Board, InitError> {
+    let reset = crate::reset::ram::start(crate::reset::Flags::None);
+    crate::sections::zero_diag_ram();
     // SAFETY: called once at start-up, before any task exists; nothing
     // else owns the core peripherals.
     let mut cp = unsafe { cortex_m::Peripherals::steal() };
@@ -137,6 +142,7 @@ pub fn init() -> Result<Board, InitError> {
         inputs: crate::io::Simulated,
         watchdog: Watchdog,
         seed: 0x5252_4900_0000_0001,
+        reset,
     })
 }
 
@@ -181,8 +187,11 @@ unsafe fn DefaultHandler(irqn: i16) {
         // SAFETY: likewise IRQ 31 and the background executor.
         31 => unsafe { BACKGROUND.on_interrupt() },
         // NMI: the watchdog ran out. Reset now rather than at its second
-        // timeout.
-        -14 => cortex_m::peripheral::SCB::sys_reset(),
+        // timeout, and say so to the next start.
+        -14 => {
+            crate::reset::ram::note(|r| r.watchdog());
+            cortex_m::peripheral::SCB::sys_reset()
+        }
         _ => {
             SPURIOUS_IRQS.fetch_add(1, Ordering::Relaxed);
         }
@@ -203,6 +212,12 @@ pub fn cycle_counter() -> u32 {
 /// model never counts a dropped frame: its `RX_DROP` reads 0).
 pub fn nic_counters() -> Option<crate::NicCounters> {
     Some(lan9118::nic_counters(&Mmio))
+}
+
+/// The link as the LAN9118's driver last read it (QEMU's PHY has no
+/// speed or duplex to read).
+pub fn link() -> crate::LinkInfo {
+    lan9118::link()
 }
 
 /// `embassy-time` over TIMER0 (free-running) and SysTick (queue ticks).
@@ -340,6 +355,9 @@ pub(crate) fn reset() -> ! {
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
+    if let Some(at) = info.location() {
+        crate::reset::ram::note(|r| r.panic(at.file(), at.line()));
+    }
     defmt::error!("panic: {}", defmt::Display2Format(info));
     exit(101)
 }

@@ -7,7 +7,7 @@ use crate::engine::{Config as EngineConfig, Periodic, Pinned};
 use crate::properties::{decode_committed, DeviceSet, RobotSet};
 use crate::schema::{
     Body, ControllerPort, Direction, FieldMut, FieldRef, FieldWire, Format, Message, MessageCodec,
-    Protocol, Record, WireEnum,
+    PropertyInfo, Protocol, Record, WireEnum,
 };
 use crate::value::{Frame, Joints, RriString, Time};
 
@@ -392,6 +392,35 @@ impl MessageCodec for SensDataMessage {
 pub const RECEIVED: [&str; 1] = ["RobData"];
 /// Root element names of the messages the device sends to the controller.
 pub const SENT: [&str; 1] = ["SensData"];
+/// `RobData` as the diagnostics describe it.
+const INFO_0: PropertyInfo = PropertyInfo {
+    name: "RobData",
+    wire: "RobData",
+    ty: "RobotData",
+    fields: &[
+        ("RobMode", "OperationMode"),
+        ("Ts_act", "time"),
+        ("P_act", "frame"),
+        ("J_act", "joints"),
+        ("Ts_des", "time"),
+        ("P_des", "frame"),
+        ("J_des", "joints"),
+        ("AppData", "real[18]"),
+    ],
+};
+/// `SensData` as the diagnostics describe it.
+const INFO_1: PropertyInfo = PropertyInfo {
+    name: "SensData",
+    wire: "SensData",
+    ty: "SensorData",
+    fields: &[("EStr", "string"), ("AppData", "real[18]")],
+};
+/// The properties the controller sends, with their fields, as the diagnostics
+/// describe them.
+pub const RECEIVED_INFO: [PropertyInfo; 1] = [INFO_0];
+/// The properties the device sends, with their fields, as the diagnostics describe
+/// them.
+pub const SENT_INFO: [PropertyInfo; 1] = [INFO_1];
 /// The first property the controller sends (the codec bench's message).
 pub type RobotMessage = RobDataMessage;
 /// The message every robot message is answered with (`RRI_REPLY`).
@@ -449,6 +478,7 @@ impl Default for RobotProperties {
 
 impl RobotSet for RobotProperties {
     const WIRE_NAMES: &'static [&'static str] = &RECEIVED;
+    const INFO: &'static [PropertyInfo] = &RECEIVED_INFO;
     const MAX_RECEIVE_LEN: usize = MAX_RECEIVE_LEN;
 
     fn decode(&mut self, work: &mut Self, bytes: &[u8]) -> Result<(usize, Decoded), DecodeError> {
@@ -510,6 +540,7 @@ impl Default for DeviceProperties {
 
 impl DeviceSet for DeviceProperties {
     const WIRE_NAMES: &'static [&'static str] = &SENT;
+    const INFO: &'static [PropertyInfo] = &SENT_INFO;
     const MAX_SEND_LEN: usize = MAX_SEND_LEN;
 
     fn encode(

@@ -10,9 +10,11 @@
 //! 2. the Ethernet DMA rings (the `ETH_DMA_PACKETS` static) lie in section
 //!    `.eth_dma`, which lies in the uncached window and in memory the
 //!    board's Ethernet DMA can reach (the H743's cannot reach its DTCM);
-//! 3. every other writable section, and the stack (`_stack_end` ..
-//!    `_stack_start`), lies in the DTCM: memory the caches never hold and
-//!    no DMA writes;
+//! 3. the diagnostics service's buffers (section `.diag_ram`: low
+//!    priority, kept out of the DTCM the stack and the cycle share) lie in
+//!    the uncached window too; every other writable section, and the
+//!    stack (`_stack_end` .. `_stack_start`), lies in the DTCM: memory the
+//!    caches never hold and no DMA writes;
 //! 4. the RTT control block (`_SEGGER_RTT`, read by the debug probe behind
 //!    the core's back) is not cacheable: in the DTCM or the window;
 //! 5. the stack region the statics leave in the DTCM is at least
@@ -195,11 +197,21 @@ pub fn check(p: &Placement, image: &Image) -> Result<(), String> {
             }
         }
     }
-    // 3. Everything else the core writes, and the stack, in the DTCM.
+    // 3. The diagnostics' buffers uncached; everything else the core
+    // writes, and the stack, in the DTCM.
+    if let Some(diag) = image.sections.iter().find(|s| s.name == ".diag_ram") {
+        if !inside(&diag.range(), &window) {
+            broken.push(format!(
+                ".diag_ram ({}) is not inside the uncached window {}: the data cache would hold it",
+                hex(&diag.range()),
+                hex(&window)
+            ));
+        }
+    }
     for s in image
         .sections
         .iter()
-        .filter(|s| s.writable && s.name != ".eth_dma")
+        .filter(|s| s.writable && s.name != ".eth_dma" && s.name != ".diag_ram")
     {
         if !inside(&s.range(), &p.dtcm) {
             broken.push(format!(
@@ -289,6 +301,7 @@ mod tests {
                 section(".bss", 0x2001_5200, 40_000, true),
                 section(".uninit", 0x2001_f000, 1024, true),
                 section(".eth_dma", 0x2400_0000, 34_080, true),
+                section(".diag_ram", 0x2400_8520, 9_000, true),
             ],
             symbols,
         }
@@ -360,6 +373,16 @@ mod tests {
             .insert("__uncached_size".into(), (384 * 1024, 0));
         let e = check(rules(), &image).unwrap_err();
         assert!(e.contains("not one MPU region"), "{e}");
+    }
+
+    #[test]
+    fn diagnostics_buffers_outside_the_uncached_window_are_refused() {
+        let mut image = h743();
+        // In the H743's cacheable SRAM1 (D2).
+        image.sections[7].addr = 0x3000_0000;
+        let e = check(rules(), &image).unwrap_err();
+        assert!(e.contains(".diag_ram (0x30000000"), "{e}");
+        assert!(!e.contains("outside the DTCM"), "{e}");
     }
 
     #[test]

@@ -11,6 +11,10 @@ pub mod layouts {
     include!(concat!(env!("OUT_DIR"), "/layouts.rs"));
 }
 
+// The std implementation of critical sections, linked into every host
+// tool (see Cargo.toml).
+use critical_section as _;
+
 pub mod attack;
 pub mod board_map;
 pub mod boards;

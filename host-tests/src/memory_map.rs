@@ -4,10 +4,12 @@
 
 use std::path::Path;
 
-/// `MEMORY` regions of a linker script: (name, origin, length).
+/// `MEMORY` regions of a linker script: (name, origin, length). A value
+/// is a number (decimal, `0x…`, with `K` or `M`) or a difference of two
+/// (`384K - 128`: a region that leaves room at its end).
 pub fn regions(script: &str) -> Result<Vec<(String, u64, u64)>, String> {
-    let number = |t: &str| -> Option<u64> {
-        let t = t.trim().trim_end_matches(',');
+    let one = |t: &str| -> Option<u64> {
+        let t = t.trim();
         let (digits, scale) = match t.strip_suffix('K') {
             Some(d) => (d, 1024),
             None => match t.strip_suffix('M') {
@@ -20,6 +22,13 @@ pub fn regions(script: &str) -> Result<Vec<(String, u64, u64)>, String> {
             None => digits.parse().ok()?,
         };
         Some(v * scale)
+    };
+    let number = |t: &str| -> Option<u64> {
+        let t = t.trim().trim_end_matches(',');
+        match t.split_once(" - ") {
+            Some((a, b)) => one(a)?.checked_sub(one(b)?),
+            None => one(t),
+        }
     };
     let mut out = Vec::new();
     for line in script.lines() {
@@ -98,12 +107,17 @@ mod tests {
             map(MEMORY_MAP),
             [
                 ("FLASH".to_string(), 0, 4 << 20),
-                ("RAM".to_string(), 0x2000_0000, 4 << 20)
+                ("RAM".to_string(), 0x2000_0000, (4 << 20) - 128)
             ]
         );
         assert_eq!(
             map("memory.x")[0],
             ("FLASH".to_string(), 0x0800_0000, 2 << 20)
+        );
+        // The crash record's 128 bytes after DMA_RAM.
+        assert_eq!(
+            map("memory.x")[2],
+            ("DMA_RAM".to_string(), 0x2002_0000, (384 << 10) - 128)
         );
     }
 

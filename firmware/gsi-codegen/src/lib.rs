@@ -146,6 +146,7 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
         "Format",
         "Message",
         "MessageCodec",
+        "PropertyInfo",
         "Protocol",
     ];
     if !device.records.is_empty() {

@@ -225,6 +225,7 @@ fn emit_struct(e: &mut Emitter, d: &Device, id: &Idents, name: &str, doc: &str, 
 fn emit_robot_set(e: &mut Emitter, d: &Device, id: &Idents, props: &[usize]) {
     e.open("impl RobotSet for RobotProperties");
     e.line("const WIRE_NAMES: &'static [&'static str] = &RECEIVED;");
+    e.line("const INFO: &'static [PropertyInfo] = &RECEIVED_INFO;");
     e.line("const MAX_RECEIVE_LEN: usize = MAX_RECEIVE_LEN;");
     e.blank();
     e.open("fn decode(&mut self, work: &mut Self, bytes: &[u8]) -> Result<(usize, Decoded), DecodeError>");
@@ -293,6 +294,7 @@ fn emit_dispatch(
 fn emit_device_set(e: &mut Emitter, d: &Device, id: &Idents, props: &[usize]) {
     e.open("impl DeviceSet for DeviceProperties");
     e.line("const WIRE_NAMES: &'static [&'static str] = &SENT;");
+    e.line("const INFO: &'static [PropertyInfo] = &SENT_INFO;");
     e.line("const MAX_SEND_LEN: usize = MAX_SEND_LEN;");
     e.blank();
     e.line("fn encode(");

@@ -6,7 +6,7 @@ use crate::emit::{str_lit, Emitter};
 use crate::resolve::Idents;
 use crate::sets;
 use crate::Options;
-use gsi_config::Device;
+use gsi_config::{Device, Property, TypeRef};
 use rri_vocabulary::{parse_ipv4, Format};
 
 pub(crate) fn emit_settings(e: &mut Emitter, d: &Device, f: Format, opts: &Options) {
@@ -143,6 +143,28 @@ pub(crate) fn emit_totals(
         &format!("pub const SENT: [&str; {}] = ", sent.len()),
         &list(&sent),
     );
+    for (i, p) in d.properties.iter().enumerate() {
+        // A property with `Flag="None"` travels neither way.
+        if p.direction.robot_sends() || p.direction.device_sends() {
+            emit_property_info(e, d, i, p);
+        }
+    }
+    let info = |idx: &[usize]| -> Vec<String> { idx.iter().map(|i| format!("INFO_{i}")).collect() };
+    e.doc("The properties the controller sends, with their fields, as the diagnostics");
+    e.doc("describe them.");
+    e.array(
+        &format!(
+            "pub const RECEIVED_INFO: [PropertyInfo; {}] = ",
+            received.len()
+        ),
+        &info(&received),
+    );
+    e.doc("The properties the device sends, with their fields, as the diagnostics describe");
+    e.doc("them.");
+    e.array(
+        &format!("pub const SENT_INFO: [PropertyInfo; {}] = ", sent.len()),
+        &info(&sent),
+    );
     let max_of = |idx: &[usize], pick: fn(&(usize, usize)) -> usize| {
         idx.iter().map(|&i| pick(&sizes[i])).max().unwrap_or(0)
     };
@@ -173,4 +195,53 @@ pub(crate) fn emit_totals(
         max_of(&sent, |s| s.0)
     ));
     sets::emit_sets(e, d, id, &received, &sent, opts.reply, &opts.periodic);
+}
+
+/// A type as Configuration.xml names it: a record's or an enum's name, or
+/// the G5 spelling, with `[N]` for an array.
+fn type_text(d: &Device, ty: TypeRef, size: Option<u16>) -> String {
+    let base = match ty {
+        TypeRef::Simple(s) => s.as_str().to_string(),
+        TypeRef::Enum(i) => d.enums[i].name.clone(),
+        TypeRef::Record(i) => d.records[i].name.clone(),
+    };
+    match size {
+        Some(n) => format!("{base}[{n}]"),
+        None => base,
+    }
+}
+
+/// `const INFO_<i>: PropertyInfo = …;` for property `i`, `p`.
+fn emit_property_info(e: &mut Emitter, d: &Device, i: usize, p: &Property) {
+    e.doc(format!("`{}` as the diagnostics describe it.", p.name));
+    e.open(format!("const INFO_{i}: PropertyInfo = PropertyInfo"));
+    e.line(format!("name: {},", str_lit(&p.name)));
+    e.line(format!("wire: {},", str_lit(p.wire())));
+    e.line(format!("ty: {},", str_lit(&type_text(d, p.ty, p.size))));
+    let fields: Vec<String> = match p.ty {
+        TypeRef::Record(r) => d.records[r]
+            .fields
+            .iter()
+            .map(|f| {
+                format!(
+                    "({}, {})",
+                    str_lit(f.wire()),
+                    str_lit(&type_text(d, f.ty, f.size))
+                )
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
+    // `fields: &[…],` as rustfmt lays out an array (see `Emitter::array`).
+    let literal = format!("[{}]", fields.join(", "));
+    if literal.len() <= 60 && e.indent * 4 + "fields: &".len() + literal.len() < 99 {
+        e.line(format!("fields: &{literal},"));
+    } else {
+        e.line("fields: &[");
+        for f in &fields {
+            e.line(format!("    {f},"));
+        }
+        e.line("],");
+    }
+    e.close(";");
 }

@@ -112,6 +112,21 @@ pub struct Engine<R: RobotSet, D: DeviceSet> {
     /// When a source other than the peer was last let through to the
     /// decoder ([`STRANGER_INTERVAL_MS`]).
     stranger_at: Option<Instant>,
+    /// Per robot property: messages decoded, and when the last came.
+    seen: [(PropertySeen, Option<Instant>); MAX_PROPERTIES],
+    /// The last decode error, for the diagnostics' "last bad message".
+    last_decode_error: Option<crate::codec::DecodeError>,
+}
+
+/// What the engine saw of one robot property (M11): how many of its
+/// messages decoded, and the time between its last two (the rate the
+/// controller's `SiSetCyclic` asked for, as it arrives).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PropertySeen {
+    /// Messages of this property decoded.
+    pub messages: u32,
+    /// Microseconds between its last two messages (0 until two came).
+    pub interval_us: u32,
 }
 
 /// Once a peer is locked, a message from any other admitted source (a
@@ -147,6 +162,8 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
             next_send: [None; SCHEDULES],
             own_id: 0,
             stranger_at: None,
+            seen: [(PropertySeen::default(), None); MAX_PROPERTIES],
+            last_decode_error: None,
         }
     }
 
@@ -173,6 +190,23 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
     /// The controller being answered (S4); `None` until one spoke.
     pub fn peer(&self) -> Option<Endpoint> {
         self.peers.peer()
+    }
+
+    /// Per robot property (by index): messages decoded and the interval
+    /// between the last two.
+    pub fn robot_seen(&self) -> [PropertySeen; MAX_PROPERTIES] {
+        self.seen.map(|(seen, _)| seen)
+    }
+
+    /// When the last robot message that decoded arrived.
+    pub fn last_message(&self) -> Option<Instant> {
+        self.last_rx
+    }
+
+    /// The last robot message the decoder rejected: what and where (the
+    /// transport keeps its bytes, see `diag`).
+    pub fn last_decode_error(&self) -> Option<crate::codec::DecodeError> {
+        self.last_decode_error
     }
 
     /// The last good value of every robot property.
@@ -270,9 +304,10 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
             Ok(len) => {
                 bump(&mut self.stats.sent);
                 bump(&mut self.stats.answered);
+                let now = clock.now();
                 self.stats
                     .latency
-                    .record(clock.now().micros_since(received));
+                    .record_at(now.micros_since(received), now.as_micros());
                 Outcome::Reply { to: from, len }
             }
             Err(reason) => {
@@ -306,10 +341,13 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
             }
             self.stranger_at = Some(received);
         }
-        let (property, decoded) = self
-            .robot
-            .decode(&mut self.work, bytes)
-            .map_err(|e| DropReason::Decode(e.kind))?;
+        let (property, decoded) = match self.robot.decode(&mut self.work, bytes) {
+            Ok(d) => d,
+            Err(e) => {
+                self.last_decode_error = Some(e);
+                return Err(DropReason::Decode(e.kind));
+            }
+        };
         self.stats.count_tally(&decoded.tally);
 
         match self.peers.accept(from, received) {
@@ -329,6 +367,13 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
             }
         }
         self.last_rx = Some(received);
+        if let Some((seen, last)) = self.seen.get_mut(property) {
+            seen.messages = seen.messages.saturating_add(1);
+            if let Some(last) = *last {
+                seen.interval_us = u32::try_from(received.micros_since(last)).unwrap_or(u32::MAX);
+            }
+            *last = Some(received);
+        }
         if let Some(ts) = decoded.ts {
             self.robot_ts = Some(ts);
             self.robot_clock = Some(RobotClock { ts, received });

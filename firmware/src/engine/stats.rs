@@ -20,6 +20,9 @@ pub struct Histogram {
     pub max_us: u32,
     /// Sum of all latencies, for the mean.
     pub total_us: u64,
+    /// When the longest was recorded (device time, µs; see
+    /// [`Histogram::record_at`]).
+    pub max_at_us: u64,
 }
 
 impl Default for Histogram {
@@ -36,6 +39,7 @@ impl Histogram {
         min_us: u32::MAX,
         max_us: 0,
         total_us: 0,
+        max_at_us: 0,
     };
 
     /// 0 µs, <2, <4, … <2^15 µs (32.8 ms), and above.
@@ -54,6 +58,23 @@ impl Histogram {
         self.min_us = self.min_us.min(us);
         self.max_us = self.max_us.max(us);
         self.total_us = self.total_us.saturating_add(micros);
+    }
+
+    /// Counts one latency of `micros` µs that ended at device time `at_us`:
+    /// when it is the longest so far, `max_at_us` says when it happened.
+    pub fn record_at(&mut self, micros: u64, at_us: u64) {
+        let us = u32::try_from(micros).unwrap_or(u32::MAX);
+        if self.count == 0 || us > self.max_us {
+            self.max_at_us = at_us;
+        }
+        self.record(micros);
+    }
+
+    /// The mean in µs (0 while empty).
+    pub fn mean_us(&self) -> u64 {
+        self.total_us
+            .checked_div(u64::from(self.count))
+            .unwrap_or(0)
     }
 
     /// Upper bound (exclusive) of bucket `i` in µs; `None` for the last.
@@ -290,6 +311,12 @@ mod tests {
         assert_eq!(h.buckets[Histogram::BUCKETS - 1], 2); // 40 ms and more
         assert_eq!((h.count, h.min_us, h.max_us), (8, 0, u32::MAX));
         assert_eq!(Histogram::bucket_limit_us(10), Some(1024));
+        let mut h = Histogram::default();
+        h.record_at(5, 100);
+        h.record_at(3, 200);
+        h.record_at(9, 300);
+        h.record_at(9, 400);
+        assert_eq!((h.max_us, h.max_at_us, h.mean_us()), (9, 300, 6));
         assert_eq!(Histogram::bucket_limit_us(Histogram::BUCKETS - 1), None);
     }
 

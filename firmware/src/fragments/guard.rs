@@ -7,6 +7,12 @@
 //! the stack as an empty frame, which smoltcp skips. Sending is the
 //! driver's own.
 //!
+//! It also times every reply at the driver (the diagnostics' reply
+//! latency, [`super::Link::latency`]): from the moment it hands the stack
+//! a robot message's last frame (a datagram for the channel port, or a
+//! TCP segment with data for it) to the moment the driver takes the
+//! reply's first frame (from the channel port, with data).
+//!
 //! It also ends a poll of the network runner after each datagram for the
 //! channel port it hands on (and after [`FRAMES_PER_POLL`] frames).
 //! smoltcp takes frames until the driver has none left, so under a flood
@@ -94,12 +100,21 @@ impl<T: embassy_net_driver::RxToken, const BUF: usize> embassy_net_driver::RxTok
             budget,
         } = self;
         let controller = link.controller();
-        let r = inner.consume(|frame| reassembler.pass(frame, now_us(), channel, controller, f));
+        let now = now_us();
+        let mut tcp = false;
+        let r = inner.consume(|frame| {
+            tcp = carries(frame, channel.port, Side::To);
+            reassembler.pass(frame, now, channel, controller, f)
+        });
         if reassembler.take_changed() {
             link.publish(reassembler.stats());
         }
         budget.frames += 1;
-        budget.to_channel |= reassembler.to_channel();
+        let to_channel = reassembler.to_channel();
+        budget.to_channel |= to_channel;
+        if to_channel || tcp {
+            link.message_in(now);
+        }
         r
     }
 }
@@ -110,7 +125,7 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
     where
         Self: 'a;
     type TxToken<'a>
-        = D::TxToken<'a>
+        = GuardTx<'a, D::TxToken<'a>>
     where
         Self: 'a;
 
@@ -146,12 +161,26 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
                 channel: *channel,
                 budget,
             },
-            tx,
+            GuardTx {
+                inner: tx,
+                link,
+                port: channel.port,
+            },
         ))
     }
 
     fn transmit(&mut self, cx: &mut Context) -> Option<Self::TxToken<'_>> {
-        self.inner.transmit(cx)
+        let FragmentGuard {
+            inner,
+            link,
+            channel,
+            ..
+        } = self;
+        Some(GuardTx {
+            inner: inner.transmit(cx)?,
+            link,
+            port: channel.port,
+        })
     }
 
     fn link_state(&mut self, cx: &mut Context) -> LinkState {
@@ -165,4 +194,65 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
     fn hardware_address(&self) -> HardwareAddress {
         self.inner.hardware_address()
     }
+}
+
+/// A frame to send: the driver's, and the reply's time when it is one.
+pub struct GuardTx<'a, T> {
+    inner: T,
+    link: &'a Link,
+    port: u16,
+}
+
+impl<T: embassy_net_driver::TxToken> embassy_net_driver::TxToken for GuardTx<'_, T> {
+    fn consume<R, F: FnOnce(&mut [u8]) -> R>(self, len: usize, f: F) -> R {
+        let GuardTx { inner, link, port } = self;
+        inner.consume(len, |frame| {
+            let r = f(frame);
+            if carries(frame, port, Side::From) {
+                link.reply_out(now_us());
+            }
+            r
+        })
+    }
+}
+
+/// Which port of a segment is the channel's.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Side {
+    /// The destination: a message coming in (TCP only: UDP datagrams are
+    /// the reassembler's to tell).
+    To,
+    /// The source: a reply going out (UDP or TCP).
+    From,
+}
+
+/// Whether an Ethernet `frame` carries channel data: IPv4, a first (or
+/// only) fragment, TCP with a payload or (`Side::From`) UDP, with the
+/// channel `port` on `side`. Reads a few header bytes, checked.
+fn carries(frame: &[u8], port: u16, side: Side) -> bool {
+    let be = |i: usize| -> Option<u16> {
+        Some(u16::from_be_bytes([*frame.get(i)?, *frame.get(i + 1)?]))
+    };
+    let check = || -> Option<bool> {
+        if be(12)? != 0x0800 || be(20)? & 0x1fff != 0 {
+            return Some(false);
+        }
+        let ihl = usize::from(frame.get(14)? & 0x0f) * 4;
+        let l4 = 14 + ihl;
+        let ports = (be(l4)?, be(l4 + 2)?);
+        let on_side = match side {
+            Side::To => ports.1 == port,
+            Side::From => ports.0 == port,
+        };
+        Some(match *frame.get(23)? {
+            17 => side == Side::From && on_side,
+            6 => {
+                let total = usize::from(be(16)?);
+                let header = ihl + usize::from(frame.get(l4 + 12)? >> 4) * 4;
+                on_side && total > header
+            }
+            _ => false,
+        })
+    };
+    check().unwrap_or(false)
 }

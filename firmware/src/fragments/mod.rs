@@ -41,8 +41,8 @@ pub use reassembly::{Reassembler, Verdict};
 #[cfg(feature = "net")]
 pub mod guard;
 
-use crate::engine::{Endpoint, Pinned};
-use core::cell::Cell;
+use crate::engine::{Endpoint, Histogram, Pinned};
+use core::cell::{Cell, RefCell};
 use critical_section::Mutex;
 
 /// An incomplete set is given up this long after its first fragment
@@ -291,6 +291,9 @@ impl FragmentStats {
 pub struct Link {
     controller: Mutex<Cell<Controller>>,
     stats: Mutex<Cell<FragmentStats>>,
+    /// The reply latency at the driver (the guard's clock): when the
+    /// last robot message's last frame came in, and every reply's time.
+    wire: Mutex<RefCell<(Option<u64>, Histogram)>>,
 }
 
 impl Default for Link {
@@ -306,7 +309,31 @@ impl Link {
         Link {
             controller: Mutex::new(Cell::new(Controller::ANYONE)),
             stats: Mutex::new(Cell::new(FragmentStats::ZERO)),
+            wire: Mutex::new(RefCell::new((None, Histogram::EMPTY))),
         }
+    }
+
+    /// The guard: a robot message's last frame was handed to the stack
+    /// at `at_us`.
+    pub fn message_in(&self, at_us: u64) {
+        critical_section::with(|cs| self.wire.borrow_ref_mut(cs).0 = Some(at_us));
+    }
+
+    /// The guard: the driver took a reply's first frame at `at_us`; the
+    /// time since the message came in is recorded (a send with no message
+    /// waiting, a periodic one, is not).
+    pub fn reply_out(&self, at_us: u64) {
+        critical_section::with(|cs| {
+            let mut wire = self.wire.borrow_ref_mut(cs);
+            if let Some(at) = wire.0.take() {
+                wire.1.record_at(at_us.saturating_sub(at), at_us);
+            }
+        });
+    }
+
+    /// The reply latency at the driver: every reply since the start.
+    pub fn latency(&self) -> Histogram {
+        critical_section::with(|cs| self.wire.borrow_ref(cs).1)
     }
 
     /// Who the controller is now.

@@ -28,7 +28,7 @@
 //!   reads both, and the FIFO's fill when the driver takes a frame, for
 //!   the firmware's counter line.
 
-use core::sync::atomic::{AtomicU32, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use core::task::Context;
 use embassy_net_driver::{Capabilities, HardwareAddress, LinkState};
 use embassy_sync::waitqueue::AtomicWaker;
@@ -135,6 +135,8 @@ static RX_FRAMES: AtomicU32 = AtomicU32::new(0);
 static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
 static RX_STATUS_FULL: AtomicU32 = AtomicU32::new(0);
 static RX_FIFO_MAX: AtomicU32 = AtomicU32::new(0);
+/// The link as `link_state` last read it.
+static LINK_UP: AtomicBool = AtomicBool::new(false);
 
 /// Adds the chip's dropped-frame count since the last read (reading
 /// clears it).
@@ -170,6 +172,17 @@ pub fn nic_counters<R: Registers>(regs: &R) -> crate::NicCounters {
         rx_dropped: RX_DROPPED.load(Ordering::Relaxed),
         status_full: RX_STATUS_FULL.load(Ordering::Relaxed),
         fifo_max: RX_FIFO_MAX.load(Ordering::Relaxed),
+        fifo: true,
+    }
+}
+
+/// The link as the driver last read it from the PHY (for the
+/// diagnostics; the stack asks the driver itself).
+pub fn link() -> crate::LinkInfo {
+    crate::LinkInfo {
+        up: LINK_UP.load(Ordering::Relaxed),
+        speed_mbps: None,
+        full_duplex: None,
     }
 }
 
@@ -427,6 +440,7 @@ impl<R: Registers> embassy_net_driver::Driver for Lan9118<R> {
             self.link_up = self
                 .phy_read(PHY_BMSR)
                 .is_ok_and(|bmsr| u32::from(bmsr) & BMSR_LINK != 0);
+            LINK_UP.store(self.link_up, Ordering::Relaxed);
         }
         if self.link_up {
             LinkState::Up

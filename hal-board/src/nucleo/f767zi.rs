@@ -68,3 +68,37 @@ pub fn config(source: Source) -> embassy_stm32::Config {
     config.rcc.sys = Sysclk::PLL1_P;
     config
 }
+
+/// Why the chip reset, from RCC_CSR's flags (then cleared, so the next
+/// reset reads only its own). Every reset sets the pin flag too, so the
+/// pin counts only when nothing else is set; a power-on sets BOR as well.
+pub fn reset_flags() -> crate::reset::Cause {
+    use crate::reset::Cause;
+    use embassy_stm32::pac::RCC;
+    let csr = RCC.csr().read();
+    let cause = if csr.wdgrstf() || csr.wwdgrstf() {
+        Cause::Watchdog
+    } else if csr.sftrstf() {
+        Cause::Software
+    } else if csr.porrstf() {
+        Cause::PowerOn
+    } else if csr.borrstf() {
+        Cause::BrownOut
+    } else if csr.padrstf() {
+        Cause::Pin
+    } else {
+        // Low-power management reset, or none set: nothing to trust.
+        Cause::PowerOn
+    };
+    RCC.csr().modify(|w| w.set_rmvf(true));
+    cause
+}
+
+/// Frames the Ethernet DMA missed since the last call: ETH_DMAMFBOCR's
+/// MFC (no receive descriptor free) and MFA (receive FIFO overflow). The
+/// register clears when read: only ever `read()` it (a `modify` would
+/// lose the counts). Not yet checked on silicon.
+pub fn missed_frames() -> u32 {
+    let r = embassy_stm32::pac::ETH.ethernet_dma().dmamfbocr().read();
+    u32::from(r.mfc()) + u32::from(r.mfa())
+}

@@ -93,3 +93,40 @@ pub fn config(source: Source) -> embassy_stm32::Config {
     config.rcc.mux.adcsel = mux::Adcsel::PLL2_P;
     config
 }
+
+/// Why the chip reset, from RCC_RSR's flags (then cleared, so the next
+/// reset reads only its own). Every reset sets the pin flag too, so the
+/// pin counts only when nothing else is set; a power-on sets BOR as well.
+pub fn reset_flags() -> crate::reset::Cause {
+    use crate::reset::Cause;
+    use embassy_stm32::pac::RCC;
+    let rsr = RCC.rsr().read();
+    let cause = if rsr.iwdg1rstf() || rsr.wwdg1rstf() {
+        Cause::Watchdog
+    } else if rsr.sftrstf() {
+        Cause::Software
+    } else if rsr.porrstf() {
+        Cause::PowerOn
+    } else if rsr.borrstf() {
+        Cause::BrownOut
+    } else if rsr.pinrstf() {
+        Cause::Pin
+    } else {
+        Cause::PowerOn
+    };
+    // RMVF clears the flags; written back to 0 so later resets set them.
+    RCC.rsr().modify(|w| w.set_rmvf(true));
+    RCC.rsr().modify(|w| w.set_rmvf(false));
+    cause
+}
+
+/// Frames the Ethernet receive path missed since the last call: the DMA
+/// channel's DMACMFCR (MFC) and the MTL receive queue's MTLRXQMPOCR
+/// (missed and overflow packets). Both clear when read. Not yet checked
+/// on silicon.
+pub fn missed_frames() -> u32 {
+    let eth = embassy_stm32::pac::ETH;
+    let dma = eth.ethernet_dma().dmacmfcr().read();
+    let mtl = eth.ethernet_mtl().mtlrx_qmpocr().read();
+    u32::from(dma.mfc()) + u32::from(mtl.mispktcnt()) + u32::from(mtl.ovfpktcnt())
+}

@@ -95,6 +95,9 @@ pub struct Board {
     /// Seed for the network stack (TCP sequence numbers, ports): from the
     /// hardware RNG.
     pub seed: u64,
+    /// Why the board started: the RCC's reset flags and the crash record
+    /// ([`crate::reset`]).
+    pub reset: crate::reset::Report,
 }
 
 /// Why the board could not start. Nothing in start-up waits forever: a
@@ -109,6 +112,10 @@ pub enum InitError {
 /// Starts the caches, the clocks, the cycle counter and the Ethernet MAC.
 /// Call once, first.
 pub fn init() -> Result<Board, InitError> {
+    // First: the flags are the chip's, embassy's init leaves them, and
+    // the record must be read before anything could write it.
+    let reset = crate::reset::ram::start(crate::reset::Flags::Chip(chip::reset_flags()));
+    crate::sections::zero_diag_ram();
     // SAFETY: called once at start-up, before any task exists; embassy-stm32
     // does not use these core peripherals.
     let mut cp = unsafe { cortex_m::Peripherals::steal() };
@@ -192,6 +199,7 @@ pub fn init() -> Result<Board, InitError> {
             running: None,
         },
         seed: u64::from_le_bytes(seed),
+        reset,
     })
 }
 
@@ -239,11 +247,30 @@ pub fn cycle_counter() -> u32 {
     cortex_m::peripheral::DWT::cycle_count()
 }
 
-/// Not read on the STM32 boards yet: embassy-stm32's driver does not
-/// expose the Ethernet DMA's missed-frame counter, and nothing here has
-/// run on a board to check a register read of our own against.
+/// The Ethernet receive path's own missed-frame counters (the chip's
+/// registers, which clear when read: summed here, under a critical
+/// section, so any number of callers may ask). embassy-stm32's driver
+/// counts nothing itself, so only `rx_dropped` is a reading. Not yet
+/// checked on silicon: the register reads are from the reference manuals
+/// and stm32-metapac.
 pub fn nic_counters() -> Option<crate::NicCounters> {
-    None
+    static DROPPED: embassy_sync::blocking_mutex::Mutex<
+        embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex,
+        core::cell::Cell<u32>,
+    > = embassy_sync::blocking_mutex::Mutex::new(core::cell::Cell::new(0));
+    let rx_dropped = DROPPED.lock(|d| {
+        d.set(d.get().saturating_add(chip::missed_frames()));
+        d.get()
+    });
+    Some(crate::NicCounters {
+        rx_dropped,
+        ..crate::NicCounters::default()
+    })
+}
+
+/// The link as the PHY monitor last read it.
+pub fn link() -> crate::LinkInfo {
+    phy::link()
 }
 
 /// LD1 (state) and LD2 (cycles).
@@ -325,6 +352,9 @@ fn reset_after_logs() -> ! {
 /// it gets here.
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
+    if let Some(at) = info.location() {
+        crate::reset::ram::note(|r| r.panic(at.file(), at.line()));
+    }
     match info.location() {
         Some(at) => defmt::error!(
             "panic at {=str}:{=u32}:{=u32}",

@@ -14,7 +14,7 @@
 #![allow(unsafe_code)]
 
 use crate::lan8742::{Lan8742, Link, Mdio};
-use core::sync::atomic::{AtomicBool, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use core::task::Context;
 use embassy_stm32::eth::{Phy, Sma, StationManagement};
 use embassy_stm32::peripherals::ETH_SMA;
@@ -24,6 +24,27 @@ use embassy_sync::waitqueue::AtomicWaker;
 pub const LINK_POLL_MS: u64 = 500;
 
 static LINK_UP: AtomicBool = AtomicBool::new(false);
+/// The last link the monitor read, for the diagnostics: 0 down, 1 up at
+/// 100 Mbit/s full duplex, else `MISMATCH | mbit << 8 | full_duplex`.
+static LINK_SEEN: AtomicU32 = AtomicU32::new(0);
+const MISMATCH: u32 = 1 << 31;
+
+/// The link as the monitor last read it.
+pub fn link() -> crate::LinkInfo {
+    match LINK_SEEN.load(Ordering::Relaxed) {
+        0 => crate::LinkInfo::default(),
+        1 => crate::LinkInfo {
+            up: true,
+            speed_mbps: Some(100),
+            full_duplex: Some(true),
+        },
+        v => crate::LinkInfo {
+            up: false,
+            speed_mbps: Some((v >> 8) as u16),
+            full_duplex: Some(v & 1 != 0),
+        },
+    }
+}
 static LINK_WAKER: AtomicWaker = AtomicWaker::new();
 
 /// The PHY as embassy-stm32's Ethernet driver sees it: the cached link
@@ -111,6 +132,16 @@ impl Monitor {
                 if full_duplex { "full" } else { "half" }
             ),
         }
+        LINK_SEEN.store(
+            match link {
+                Link::Down => 0,
+                Link::Up => 1,
+                Link::Mismatch { mbit, full_duplex } => {
+                    MISMATCH | u32::from(mbit) << 8 | u32::from(full_duplex)
+                }
+            },
+            Ordering::Relaxed,
+        );
         LINK_UP.store(link.is_up(), Ordering::Release);
         LINK_WAKER.wake();
     }

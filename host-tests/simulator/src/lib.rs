@@ -11,6 +11,7 @@
 //! percentiles, and per property.
 
 pub mod args;
+pub mod device_status;
 pub mod fault;
 mod link;
 pub mod motion;
@@ -147,6 +148,14 @@ pub fn run(
             .any(|f| matches!(f, Fault::SecondPort { .. }));
         Link::udp(opts.to, second).map_err(|e| format!("cannot open a UDP socket: {e}"))?
     };
+    // The device's own counters before the first message, for
+    // `--device-status` (an unreadable status fails the run at once).
+    let device_before = match &opts.device_status {
+        Some(url) => Some(
+            device_status::DeviceCounts::read(url).map_err(|e| format!("--device-status: {e}"))?,
+        ),
+        None => None,
+    };
     let start_unix_us = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_micros() as u64)
@@ -189,6 +198,13 @@ pub fn run(
     stream.release_held(&mut sim)?;
     sim.collect_last(tick);
     let (mut s, cycles, packets) = sim.finish(&sends);
+    if let (Some(url), Some(before)) = (&opts.device_status, &device_before) {
+        // The device's last turn is published before its reply leaves.
+        match device_status::DeviceCounts::read(url) {
+            Ok(after) => s.device_status = Some(device_status::compare(&s, before, &after)),
+            Err(e) => s.output_errors.push(format!("--device-status: {e}")),
+        }
+    }
     let shown = show.as_ref();
     write_outputs(
         opts,

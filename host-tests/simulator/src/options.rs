@@ -48,6 +48,10 @@ pub struct RobotOptions {
     /// Lines of the device's own log (e.g. the QEMU board's defmt output),
     /// printed above the progress bar as they come (`cargo demo`).
     pub device_log: Option<Arc<Mutex<Vec<String>>>>,
+    /// `--device-status URL`: read the device's `/status.json` before and
+    /// after the run and put its counts beside the simulator's
+    /// ([`crate::device_status`]).
+    pub device_status: Option<String>,
 }
 
 impl RobotOptions {
@@ -77,6 +81,7 @@ impl RobotOptions {
             first_id: 1,
             progress: false,
             device_log: None,
+            device_status: None,
         }
     }
 }

@@ -68,6 +68,8 @@ pub struct Summary {
     /// Per property (M11): each one sent, then each device property
     /// received (the reply, periodic ones).
     pub properties: Vec<PropertyFigures>,
+    /// `--device-status`: the device's own counts beside these.
+    pub device_status: Option<crate::device_status::Comparison>,
 }
 
 /// Faults injected by `--fault`, by kind.
@@ -241,9 +243,13 @@ impl Summary {
             }
         }
         match &self.supervision_tripped {
-            None => writeln!(out, "  supervision: never tripped"),
-            Some(s) => writeln!(out, "  supervision: TRIPPED ({s})"),
+            None => writeln!(out, "  supervision: never tripped")?,
+            Some(s) => writeln!(out, "  supervision: TRIPPED ({s})")?,
         }
+        if let Some(c) = &self.device_status {
+            c.print(out)?;
+        }
+        Ok(())
     }
 }
 

@@ -7,7 +7,8 @@
 //! `RRI_DEVICE`). Samples are the sensor's own `simulate`, or recorded
 //! ones replayed from a CSV file. Logs what it samples, state changes and
 //! one statistics line per second; Ctrl-C or SIGTERM prints a summary and
-//! exits 0.
+//! exits 0. `--http ADDR:PORT` serves the diagnostics a board serves (the
+//! firmware's own rendering: page, `/status.json`, `/metrics`).
 
 use clap::Parser;
 use host_tests::sensor::{run, Recording, SensorOptions, Source};
@@ -50,6 +51,10 @@ struct Args {
     /// time go to the sensor's `replay`.
     #[arg(long, value_name = "FILE.csv")]
     replay: Option<PathBuf>,
+    /// Serve the diagnostics here: the status page (`/`), `/status.json` and `/metrics`, the
+    /// same as a board's (e.g. 127.0.0.1:8080).
+    #[arg(long, value_name = "ADDR:PORT")]
+    http: Option<SocketAddr>,
 }
 
 fn multiple_of_4(text: &str) -> Result<u32, String> {
@@ -82,6 +87,7 @@ fn options(a: &Args) -> SensorOptions {
     if let Some(ms) = a.send_period_ms {
         o.config.send_period_ms = ms;
     }
+    o.http = a.http;
     o
 }
 

@@ -8,13 +8,15 @@
 //! ([`Source`]: simulated, or a recorded CSV file).
 
 use rri_firmware::engine::{
-    Application, Clock, Config, Endpoint, Engine, ErrorCode, Instant, Outcome, SensorState, Stats,
+    Application, Clock, Config, DropReason, Endpoint, Engine, ErrorCode, Instant, Outcome,
+    SensorState, Stats,
 };
 use rri_firmware::layout;
 use rri_firmware::properties::{DeviceSet, RobotSet};
 use rri_firmware::sample::SampleCell;
 use rri_firmware::sensor::{Ring, Sampler, Sensor, SensorApp};
 use rri_firmware::sensors::Active;
+use rri_firmware::snapshot::Snapshot;
 use std::io::{self, Write};
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -23,6 +25,7 @@ use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+pub mod http;
 mod source;
 mod tcp;
 mod udp;
@@ -69,6 +72,10 @@ pub struct SensorOptions {
     pub device_name: &'static str,
     /// Where the samples come from.
     pub source: Source,
+    /// Serve the diagnostics (page, JSON, metrics) here (`None`: not).
+    pub http: Option<SocketAddr>,
+    /// Told the diagnostics' bound address once it listens.
+    pub http_ready: Option<Sender<SocketAddr>>,
 }
 
 impl SensorOptions {
@@ -84,6 +91,8 @@ impl SensorOptions {
             stats_every: Some(Duration::from_secs(1)),
             device_name: layout::DEVICE_NAME,
             source: Source::Simulated,
+            http: None,
+            http_ready: None,
         }
     }
 }
@@ -134,6 +143,41 @@ pub fn stats_line(s: &Stats) -> String {
     )
 }
 
+/// Who the host sensor is, for its diagnostics.
+fn host_identity<S: Sensor<R, D>, R: RobotSet, D: DeviceSet>(
+    opts: &SensorOptions,
+    http_port: u16,
+) -> rri_firmware::diag::Identity {
+    let ip = match opts.listen {
+        SocketAddr::V4(a) => a.ip().octets(),
+        SocketAddr::V6(_) => [0; 4],
+    };
+    rri_firmware::diag::Identity {
+        device: opts.device_name,
+        device_type: layout::DEVICE_TYPE,
+        device_class: layout::DEVICE_CLASS,
+        version: env!("CARGO_PKG_VERSION"),
+        commit: rri_firmware::network::COMMIT,
+        board: "host (cargo sensor-host)",
+        sensor: core::any::type_name::<S>(),
+        sensor_file: rri_firmware::sensors::ACTIVE_FILE,
+        mac: None,
+        ip,
+        prefix: 32,
+        gateway: None,
+        protocol: if opts.tcp {
+            rri_firmware::schema::Protocol::Tcp
+        } else {
+            rri_firmware::schema::Protocol::Udp
+        },
+        port: opts.listen.port(),
+        http_port,
+        config: opts.config,
+        received: R::INFO,
+        sent: D::INFO,
+    }
+}
+
 fn endpoint(addr: SocketAddr) -> Option<Endpoint> {
     match addr {
         SocketAddr::V4(a) => Some(Endpoint::new(a.ip().octets(), a.port())),
@@ -152,6 +196,11 @@ struct Node<'w, R: RobotSet, D: DeviceSet, A> {
     log: &'w mut dyn Write,
     last_stats: std::time::Instant,
     stats_every: Option<Duration>,
+    /// What the diagnostics service reads, and the last snapshot given
+    /// to it.
+    diag: Arc<http::HostDiag>,
+    last: Snapshot,
+    turns: u32,
 }
 
 impl<R: RobotSet, D: DeviceSet, A: Application<R, D>> Node<'_, R, D, A> {
@@ -189,6 +238,12 @@ impl<R: RobotSet, D: DeviceSet, A: Application<R, D>> Node<'_, R, D, A> {
             &mut self.out,
         );
         self.note_state();
+        if let (Outcome::Dropped(DropReason::Decode(_)), Some(e)) =
+            (outcome, self.engine.last_decode_error())
+        {
+            self.diag.last_bad.record(received, from, e, bytes);
+        }
+        self.publish();
         match outcome {
             Outcome::Reply { to, len } => Some((to, len)),
             Outcome::Dropped(_) => None,
@@ -199,7 +254,16 @@ impl<R: RobotSet, D: DeviceSet, A: Application<R, D>> Node<'_, R, D, A> {
         let r = self.engine.poll(&mut self.app, &self.clock, &mut self.out);
         self.note_state();
         self.tick();
+        self.publish();
         r
+    }
+
+    /// A turn's snapshot for the diagnostics (as a board's cycle does).
+    fn publish(&mut self) {
+        self.turns = self.turns.wrapping_add(1);
+        let now = Snapshot::of(&self.engine, self.turns);
+        self.diag.turn(&self.last, &now, self.clock.now());
+        self.last = now;
     }
 }
 
@@ -275,6 +339,8 @@ impl Background {
             stats_every: None,
             device_name,
             source,
+            http: None,
+            http_ready: None,
         };
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
@@ -335,8 +401,27 @@ pub fn run_with<S: Sensor<R, D>, R: RobotSet, D: DeviceSet, const RX: usize>(
         log,
         last_stats: std::time::Instant::now(),
         stats_every: opts.stats_every,
+        diag: Arc::new(http::HostDiag::default()),
+        last: Snapshot::default(),
+        turns: 0,
     };
     node.note_state();
+    let listener = match opts.http {
+        Some(addr) => {
+            let l = std::net::TcpListener::bind(addr)?;
+            let bound = l.local_addr()?;
+            let _ = writeln!(
+                node.log,
+                "diagnostics: http://{bound}/ (page), /status.json, /metrics"
+            );
+            if let Some(tx) = &opts.http_ready {
+                let _ = tx.send(bound);
+            }
+            Some(l)
+        }
+        None => None,
+    };
+    let http_stop = Arc::new(AtomicBool::new(false));
     let result = std::thread::scope(|s| {
         // The sampling half, on a thread of its own (the board's background
         // executor): never blocks the cycle, whatever it does.
@@ -344,12 +429,21 @@ pub fn run_with<S: Sensor<R, D>, R: RobotSet, D: DeviceSet, const RX: usize>(
             let mut sampler = Sampler::<S, R, D>::new(writer);
             opts.source.run(&mut sampler, &clock, stop);
         });
+        if let Some(listener) = listener {
+            let id = host_identity::<S, R, D>(
+                opts,
+                listener.local_addr().map(|a| a.port()).unwrap_or(0),
+            );
+            let (diag, flag) = (node.diag.clone(), http_stop.clone());
+            s.spawn(move || http::serve(listener, diag, id, move || clock.now(), flag));
+        }
         let r = if opts.tcp {
             tcp::serve::<R, D, _, RX>(&mut node, opts, stop, ready)
         } else {
             udp::serve(&mut node, opts, stop, ready)
         };
         stop.store(true, Ordering::Relaxed);
+        http_stop.store(true, Ordering::Relaxed);
         r
     });
     if let Err(e) = result {

@@ -94,21 +94,38 @@ impl DecodeErrorKind {
     pub const fn index(self) -> usize {
         self as usize
     }
-}
 
-/// A rejected datagram: what and where (byte offset in the datagram).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct DecodeError {
-    /// What was wrong; counted per kind in the statistics.
-    pub kind: DecodeErrorKind,
-    /// Byte offset in the datagram where it was found (for `TooLong`, the
-    /// limit that was passed).
-    pub offset: usize,
-}
+    /// A short name for machines (metric labels, JSON keys):
+    /// `too_long`, `not_utf8`, ….
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::TooLong => "too_long",
+            Self::NotUtf8 => "not_utf8",
+            Self::Doctype => "doctype",
+            Self::Malformed => "malformed",
+            Self::WrongRoot => "wrong_root",
+            Self::MissingId => "missing_id",
+            Self::InvalidId => "invalid_id",
+            Self::InvalidTs => "invalid_ts",
+            Self::TooDeep => "too_deep",
+            Self::Truncated => "truncated",
+            Self::TrailingGarbage => "trailing_garbage",
+            Self::MismatchedTag => "mismatched_tag",
+            Self::InvalidNumber => "invalid_number",
+            Self::NumberOutOfRange => "number_out_of_range",
+            Self::NumberTooLong => "number_too_long",
+            Self::InvalidTime => "invalid_time",
+            Self::InvalidBool => "invalid_bool",
+            Self::UnknownEnumMember => "unknown_enum_member",
+            Self::BadReference => "bad_reference",
+            Self::Duplicate => "duplicate",
+            Self::TooManyExtras => "too_many_extras",
+        }
+    }
 
-impl core::fmt::Display for DecodeErrorKind {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
+    /// What went wrong, for people, with the rule it breaks.
+    pub const fn text(self) -> &'static str {
+        match self {
             Self::TooLong => "message longer than the receive buffer",
             Self::NotUtf8 => "message is not valid UTF-8",
             Self::Doctype => "document type declaration refused (never processed)",
@@ -130,7 +147,23 @@ impl core::fmt::Display for DecodeErrorKind {
             Self::BadReference => "undefined entity or character reference (M6)",
             Self::Duplicate => "field, Id or Ts given twice",
             Self::TooManyExtras => "too many items outside the layout (M2)",
-        })
+        }
+    }
+}
+
+/// A rejected datagram: what and where (byte offset in the datagram).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct DecodeError {
+    /// What was wrong; counted per kind in the statistics.
+    pub kind: DecodeErrorKind,
+    /// Byte offset in the datagram where it was found (for `TooLong`, the
+    /// limit that was passed).
+    pub offset: usize,
+}
+
+impl core::fmt::Display for DecodeErrorKind {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.text())
     }
 }
 

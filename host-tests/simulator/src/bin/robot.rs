@@ -76,6 +76,10 @@ struct Args {
     /// No live progress line (it is shown on a terminal).
     #[arg(long)]
     no_progress: bool,
+    /// Read the device's diagnostics (its /status.json, e.g. http://10.49.65.74/) before and
+    /// after the run and print its counts beside the simulator's, naming every disagreement.
+    #[arg(long, value_name = "URL")]
+    device_status: Option<String>,
 }
 
 fn options(a: Args) -> RobotOptions {
@@ -95,6 +99,7 @@ fn options(a: Args) -> RobotOptions {
     o.first_id = a.first_id;
     o.pacing = !a.no_pacing;
     o.progress = !a.no_progress && std::io::stderr().is_terminal();
+    o.device_status = a.device_status;
     o
 }
 

@@ -16,7 +16,11 @@
 //! names: nothing here depends on its sample type.
 //!
 //! The watchers never hold the engine: the cycle publishes a
-//! [`Snapshot`] after each turn and they read the latest one.
+//! [`Snapshot`] after each turn and they read the latest one. So does the
+//! diagnostics service (`diagnostics`: a status page, JSON and Prometheus
+//! metrics over HTTP, cfg `rri_http`), whose connection tasks only move
+//! bytes on the urgent executor while it parses and renders on the
+//! background one.
 #![no_std]
 #![no_main]
 // The bench's floor build (feature `bench-floor`) answers without the
@@ -28,7 +32,7 @@ use embassy_net::{Ipv4Address, Ipv4Cidr, Runner, Stack, StackResources, StaticCo
 use embassy_time::{Duration, Ticker};
 use hal_board::board;
 use rri_firmware::codec::DecodeErrorKind;
-use rri_firmware::engine::{Clock, Engine, Outcome, SensorState};
+use rri_firmware::engine::{Clock, DropReason, Engine, Outcome, SensorState};
 use rri_firmware::fragments::guard::FragmentGuard;
 use rri_firmware::fragments::{self, Channel, Link, Reassembler};
 use rri_firmware::layout::{self, DeviceEngine, DeviceProperties, RobotProperties};
@@ -40,6 +44,18 @@ use rri_firmware::sensor::{Ring, Sampler, Sensor, SensorApp};
 use rri_firmware::sensors::Active;
 use rri_firmware::snapshot::{Published, Snapshot};
 use static_cell::{ConstStaticCell, StaticCell};
+
+/// Spawns a task at start-up; a full task pool is a build mistake.
+macro_rules! spawn {
+    ($spawner:expr, $task:expr) => {
+        match $task {
+            Ok(token) => $spawner.spawn(token),
+            Err(_) => defmt::panic!("task pool full: {}", stringify!($task)),
+        }
+    };
+}
+
+mod diagnostics;
 
 /// The device's address: Description.xml's `Network Address`.
 const ADDRESS: [u8; 4] = match layout::NETWORK_IPV4 {
@@ -54,6 +70,12 @@ const TCP_SOCKET: usize = if layout::MAX_RECEIVE_LEN > layout::MAX_SEND_LEN {
 } else {
     layout::MAX_SEND_LEN
 };
+/// The network stack's sockets: the channel's (two for TCP: the served
+/// connection and the standby) and the diagnostics service's.
+#[cfg(rri_http)]
+const SOCKETS: usize = 2 + rri_firmware::diag::serve::SLOTS;
+#[cfg(not(rri_http))]
+const SOCKETS: usize = 2;
 /// The watchdog resets the board when the cycle stops turning this long.
 const WATCHDOG_MS: u32 = 2_000;
 
@@ -80,16 +102,6 @@ type Samples = <Active as Sensor>::History;
 
 static SAMPLES: SampleCell<Samples> = SampleCell::new(<Samples as Ring<_>>::EMPTY);
 static PUBLISHED: Published = Published::new();
-
-/// Spawns a task at start-up; a full task pool is a build mistake.
-macro_rules! spawn {
-    ($spawner:expr, $task:expr) => {
-        match $task {
-            Ok(token) => $spawner.spawn(token),
-            Err(_) => defmt::panic!("task pool full: {}", stringify!($task)),
-        }
-    };
-}
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
@@ -130,6 +142,16 @@ fn main() -> ! {
             c.baseline
         );
     }
+    diagnostics::started(b.reset);
+    let mac = match embassy_net_driver::Driver::hardware_address(&b.net) {
+        embassy_net_driver::HardwareAddress::Ethernet(mac) => Some(mac),
+        #[allow(unreachable_patterns)]
+        _ => None,
+    };
+    #[cfg(rri_http)]
+    let mut http = diagnostics::http::Parts::build(diagnostics::identity(mac));
+    #[cfg(not(rri_http))]
+    let _ = mac;
     let Some((writer, reader)) = SAMPLES.split() else {
         defmt::panic!("the sample cell was split twice")
     };
@@ -137,7 +159,13 @@ fn main() -> ! {
     let nic = rri_firmware::bench::Tap::new(b.net, board::cycle_counter);
     #[cfg(not(feature = "bench"))]
     let nic = b.net;
-    start_network(nic, b.seed, reader);
+    start_network(
+        nic,
+        b.seed,
+        reader,
+        #[cfg(rri_http)]
+        http.urgent(),
+    );
 
     let (inputs, leds, watchdog) = (b.inputs, b.leds, b.watchdog);
     board::run_background(move |s| {
@@ -145,6 +173,10 @@ fn main() -> ! {
         spawn!(s, housekeeping(leds, watchdog));
         #[cfg(feature = "bench")]
         spawn!(s, bench_log());
+        #[cfg(rri_http)]
+        for (slot, half, renderer, id) in http.services() {
+            spawn!(s, diagnostics::http::service(slot, half, renderer, id));
+        }
     })
 }
 
@@ -154,15 +186,34 @@ fn main() -> ! {
 /// the driver into the task's storage takes kilobytes (3 KB of `main`'s
 /// frame when it was inlined there).
 #[inline(never)]
-fn start_network(driver: Driver, seed: u64, reader: SampleReader<'static, Samples>) {
+fn start_network(
+    driver: Driver,
+    seed: u64,
+    reader: SampleReader<'static, Samples>,
+    #[cfg(rri_http)] http: Option<diagnostics::http::Urgent>,
+) {
     let urgent: SendSpawner = board::start_urgent_executor();
-    spawn!(urgent, network(driver, seed, reader));
+    spawn!(
+        urgent,
+        network(
+            driver,
+            seed,
+            reader,
+            #[cfg(rri_http)]
+            http
+        )
+    );
 }
 
 /// Builds the network stack on the urgent executor (the stack is not
 /// `Send`: it must live where it runs) and starts the runner and the cycle.
 #[embassy_executor::task]
-async fn network(driver: Driver, seed: u64, reader: SampleReader<'static, Samples>) {
+async fn network(
+    driver: Driver,
+    seed: u64,
+    reader: SampleReader<'static, Samples>,
+    #[cfg(rri_http)] http: Option<diagnostics::http::Urgent>,
+) {
     // SAFETY: this task runs on the urgent executor and spawns onto it.
     let spawner = unsafe { Spawner::for_current_executor() }.await;
     // Here, not in `main` (see `start_network`): this task's frame is gone
@@ -186,12 +237,17 @@ async fn network(driver: Driver, seed: u64, reader: SampleReader<'static, Sample
         gateway: network::GATEWAY.map(|[a, b, c, d]| Ipv4Address::new(a, b, c, d)),
         dns_servers: Default::default(),
     });
-    // Sockets: one (UDP), or two (TCP: the served connection and the standby).
-    static RESOURCES: StaticCell<StackResources<2>> = StaticCell::new();
+    // Sockets: one (UDP), or two (TCP: the served connection and the
+    // standby), and one per diagnostics slot.
+    static RESOURCES: StaticCell<StackResources<SOCKETS>> = StaticCell::new();
     let (stack, runner) =
         embassy_net::new(nic, config, RESOURCES.init(StackResources::new()), seed);
     spawn!(spawner, net_runner(runner));
     spawn!(spawner, cycle(stack, reader));
+    #[cfg(rri_http)]
+    if let Some(http) = http {
+        diagnostics::http::start_urgent(spawner, stack, http);
+    }
 }
 
 #[embassy_executor::task]
@@ -326,19 +382,25 @@ impl Monitor<RobotProperties, DeviceProperties> for Publisher {
     fn message(
         &mut self,
         engine: &DeviceEngine,
-        _bytes: usize,
-        _outcome: &Outcome,
+        message: &[u8],
+        from: rri_firmware::engine::Endpoint,
+        outcome: &Outcome,
         _counts: (u32, u32),
     ) {
         #[cfg(feature = "bench")]
         rri_firmware::bench::message(
-            _bytes,
-            match _outcome {
+            message.len(),
+            match outcome {
                 Outcome::Reply { to, .. } => Some(to.port),
                 Outcome::Dropped(_) => None,
             },
             _counts,
         );
+        if let (Outcome::Dropped(DropReason::Decode(_)), Some(error)) =
+            (outcome, engine.last_decode_error())
+        {
+            diagnostics::LAST_BAD.record(diagnostics::now(), from, error, message);
+        }
         self.publish(engine);
     }
 
@@ -371,10 +433,12 @@ async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Watchdog) -> !
     let mut last = Snapshot::default();
     let mut tick: u32 = 0;
     let mut stack_used = 0;
+    let mut link = hal_board::LinkInfo::default();
     loop {
         ticker.next().await;
         tick = tick.wrapping_add(1);
         let now = PUBLISHED.latest();
+        diagnostics::note(&last, &now, &mut link);
         // A TCP cycle waits in accept without turning; it has nothing to
         // hang on there.
         let waiting = TCP && now.state != SensorState::Operating;

@@ -1,0 +1,521 @@
+//! The smallest HTTP/1.1 server side the diagnostics need: a request
+//! parser with fixed limits ([`Parser`]) and the response head
+//! ([`head`]). Read-only by construction: `GET` and `HEAD` of three
+//! paths, every other request an error status, one request per
+//! connection (`Connection: close`), so nothing on the device can be
+//! changed through this port and no client can hold more than one
+//! request's worth of state.
+//!
+//! Limits (each answered with its status, then the connection closes):
+//! a request line longer than [`LINE_MAX`] bytes (414), a header section
+//! longer than [`HEADERS_MAX`] bytes (431), a method other than `GET` and
+//! `HEAD` (405 for the methods RFC 9110 defines, 501 for any other token),
+//! a path other than `/`, `/status.json`, `/metrics` (404; nothing is
+//! ever looked up, so `/../` is just another unknown path), a version
+//! other than HTTP/1.0 or 1.1 (505), and anything malformed, control
+//! bytes and bytes from 0x80 in the request line included (400). How long
+//! a client may take is the service's rule (408), not the parser's.
+//!
+//! The parser takes bytes as they come (any split) and keeps only the
+//! request line: its work is one step per byte, bounded by the limits.
+
+/// Longest request line accepted (method, target, version, CRLF).
+pub const LINE_MAX: usize = 256;
+/// Longest header section accepted after the request line.
+pub const HEADERS_MAX: usize = 2048;
+/// Empty lines tolerated before the request line (RFC 9112 §2.2).
+const LEADING_EMPTY_LINES: u8 = 4;
+
+/// What the client asked for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Route {
+    /// `GET /`: the status page (HTML).
+    Page,
+    /// `GET /status.json`.
+    Json,
+    /// `GET /metrics`: Prometheus text exposition.
+    Metrics,
+}
+
+impl Route {
+    /// The path it is served at.
+    pub const fn path(self) -> &'static str {
+        match self {
+            Route::Page => "/",
+            Route::Json => "/status.json",
+            Route::Metrics => "/metrics",
+        }
+    }
+
+    /// Its `Content-Type`.
+    pub const fn content_type(self) -> &'static str {
+        match self {
+            Route::Page => "text/html; charset=utf-8",
+            Route::Json => "application/json",
+            Route::Metrics => "text/plain; version=0.0.4; charset=utf-8",
+        }
+    }
+}
+
+/// A request the service answers with content.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Request {
+    /// What to send.
+    pub route: Route,
+    /// `HEAD`: the head alone.
+    pub head_only: bool,
+}
+
+/// Every status the service sends.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    /// 200.
+    Ok,
+    /// 400: malformed.
+    BadRequest,
+    /// 404: no such path.
+    NotFound,
+    /// 405: a method RFC 9110 defines, other than `GET` and `HEAD`.
+    MethodNotAllowed,
+    /// 408: the request did not arrive in time (the service's rule).
+    RequestTimeout,
+    /// 414: the request line is longer than [`LINE_MAX`].
+    UriTooLong,
+    /// 431: the headers are longer than [`HEADERS_MAX`].
+    HeadersTooLarge,
+    /// 501: a method nobody defined.
+    NotImplemented,
+    /// 505: not HTTP/1.0 or 1.1.
+    VersionNotSupported,
+    /// 503: every connection slot is busy (sent by a slot that has to
+    /// turn a connection away).
+    Unavailable,
+}
+
+impl Status {
+    /// The status code.
+    pub const fn code(self) -> u16 {
+        match self {
+            Status::Ok => 200,
+            Status::BadRequest => 400,
+            Status::NotFound => 404,
+            Status::MethodNotAllowed => 405,
+            Status::RequestTimeout => 408,
+            Status::UriTooLong => 414,
+            Status::HeadersTooLarge => 431,
+            Status::NotImplemented => 501,
+            Status::Unavailable => 503,
+            Status::VersionNotSupported => 505,
+        }
+    }
+
+    /// The reason phrase.
+    pub const fn reason(self) -> &'static str {
+        match self {
+            Status::Ok => "OK",
+            Status::BadRequest => "Bad Request",
+            Status::NotFound => "Not Found",
+            Status::MethodNotAllowed => "Method Not Allowed",
+            Status::RequestTimeout => "Request Timeout",
+            Status::UriTooLong => "URI Too Long",
+            Status::HeadersTooLarge => "Request Header Fields Too Large",
+            Status::NotImplemented => "Not Implemented",
+            Status::Unavailable => "Service Unavailable",
+            Status::VersionNotSupported => "HTTP Version Not Supported",
+        }
+    }
+}
+
+/// What the bytes so far amount to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Parsed {
+    /// Not a whole request yet.
+    More,
+    /// A request to answer with content.
+    Request(Request),
+    /// A request to answer with this error status.
+    Refused(Status),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stage {
+    /// Reading the request line (after any leading empty lines).
+    Line {
+        empty: u8,
+    },
+    /// Reading header lines; `at_line_start`: the last byte ended a line.
+    Headers {
+        at_line_start: bool,
+        request: Request,
+    },
+    Done(Parsed),
+}
+
+/// An HTTP/1.x request parser with fixed limits: [`Parser::feed`] the
+/// bytes as they arrive until it says something other than
+/// [`Parsed::More`].
+pub struct Parser {
+    stage: Stage,
+    line: heapless::Vec<u8, LINE_MAX>,
+    header_bytes: usize,
+}
+
+impl Default for Parser {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Parser {
+    /// Waiting for a request line.
+    pub const fn new() -> Self {
+        Parser {
+            stage: Stage::Line { empty: 0 },
+            line: heapless::Vec::new(),
+            header_bytes: 0,
+        }
+    }
+
+    /// The verdict so far, without more bytes.
+    pub fn parsed(&self) -> Parsed {
+        match self.stage {
+            Stage::Done(p) => p,
+            _ => Parsed::More,
+        }
+    }
+
+    /// Takes `bytes`; the verdict once there is one (bytes after it are
+    /// ignored: one request per connection).
+    pub fn feed(&mut self, bytes: &[u8]) -> Parsed {
+        for &b in bytes {
+            let next = match self.stage {
+                Stage::Done(p) => return p,
+                Stage::Line { empty } => self.line_byte(b, empty),
+                Stage::Headers {
+                    at_line_start,
+                    request,
+                } => self.header_byte(b, at_line_start, request),
+            };
+            self.stage = next;
+        }
+        self.parsed()
+    }
+
+    fn line_byte(&mut self, b: u8, empty: u8) -> Stage {
+        if b == b'\n' {
+            let line = strip_cr(&self.line);
+            if line.is_empty() {
+                self.line.clear();
+                return if empty < LEADING_EMPTY_LINES {
+                    Stage::Line { empty: empty + 1 }
+                } else {
+                    Stage::Done(Parsed::Refused(Status::BadRequest))
+                };
+            }
+            return match request_line(line) {
+                Ok(request) => Stage::Headers {
+                    at_line_start: true,
+                    request,
+                },
+                Err(status) => Stage::Done(Parsed::Refused(status)),
+            };
+        }
+        if self.line.push(b).is_err() {
+            return Stage::Done(Parsed::Refused(Status::UriTooLong));
+        }
+        Stage::Line { empty }
+    }
+
+    fn header_byte(&mut self, b: u8, at_line_start: bool, request: Request) -> Stage {
+        self.header_bytes += 1;
+        if self.header_bytes > HEADERS_MAX {
+            return Stage::Done(Parsed::Refused(Status::HeadersTooLarge));
+        }
+        match b {
+            // An empty line ends the headers (CRLF, or a bare LF).
+            b'\n' if at_line_start => Stage::Done(Parsed::Request(request)),
+            b'\n' => Stage::Headers {
+                at_line_start: true,
+                request,
+            },
+            // The CR of an empty line's CRLF leaves us at the line's start.
+            b'\r' => Stage::Headers {
+                at_line_start,
+                request,
+            },
+            // A NUL anywhere in a header is malformed (RFC 9110 §5.5).
+            0 => Stage::Done(Parsed::Refused(Status::BadRequest)),
+            _ => Stage::Headers {
+                at_line_start: false,
+                request,
+            },
+        }
+    }
+}
+
+fn strip_cr(line: &[u8]) -> &[u8] {
+    line.strip_suffix(b"\r").unwrap_or(line)
+}
+
+/// Methods RFC 9110 defines (405 rather than 501).
+const KNOWN_METHODS: [&[u8]; 7] = [
+    b"POST", b"PUT", b"DELETE", b"CONNECT", b"OPTIONS", b"TRACE", b"PATCH",
+];
+
+/// `METHOD SP request-target SP HTTP-version` (RFC 9112 §3).
+fn request_line(line: &[u8]) -> Result<Request, Status> {
+    if line
+        .iter()
+        .any(|&b| !(0x21..=0x7e).contains(&b) && b != b' ')
+    {
+        return Err(Status::BadRequest);
+    }
+    let mut parts = line.split(|&b| b == b' ');
+    let (Some(method), Some(target), Some(version), None) =
+        (parts.next(), parts.next(), parts.next(), parts.next())
+    else {
+        return Err(Status::BadRequest);
+    };
+    if method.is_empty() || !method.iter().all(|&b| is_tchar(b)) {
+        return Err(Status::BadRequest);
+    }
+    let head_only = match method {
+        b"GET" => false,
+        b"HEAD" => true,
+        m if KNOWN_METHODS.contains(&m) => return Err(Status::MethodNotAllowed),
+        _ => return Err(Status::NotImplemented),
+    };
+    match version {
+        b"HTTP/1.1" | b"HTTP/1.0" => {}
+        [b'H', b'T', b'T', b'P', b'/', major, b'.', minor]
+            if major.is_ascii_digit() && minor.is_ascii_digit() =>
+        {
+            return Err(Status::VersionNotSupported)
+        }
+        _ => return Err(Status::BadRequest),
+    }
+    if target.first() != Some(&b'/') {
+        return Err(Status::BadRequest);
+    }
+    let path = target.split(|&b| b == b'?').next().unwrap_or(target);
+    let route = match path {
+        b"/" | b"/index.html" => Route::Page,
+        b"/status.json" => Route::Json,
+        b"/metrics" => Route::Metrics,
+        _ => return Err(Status::NotFound),
+    };
+    Ok(Request { route, head_only })
+}
+
+/// RFC 9110 §5.6.2 token characters.
+fn is_tchar(b: u8) -> bool {
+    b.is_ascii_alphanumeric() || b"!#$%&'*+-.^_`|~".contains(&b)
+}
+
+/// Writes the response head for `status` with a body of `len` bytes of
+/// `content_type`. Every response closes the connection and may not be
+/// cached; the page may load nothing from anywhere (its CSS, script and
+/// SVG are inline) and fetch only from the device itself.
+pub fn head(out: &mut dyn super::Out, status: Status, content_type: &str, len: usize) {
+    out.str("HTTP/1.1 ");
+    out.u32(status.code().into());
+    out.str(" ");
+    out.str(status.reason());
+    out.str("\r\nContent-Type: ");
+    out.str(content_type);
+    out.str("\r\nContent-Length: ");
+    out.u64(len as u64);
+    out.str("\r\nCache-Control: no-store\r\nConnection: close\r\nX-Content-Type-Options: nosniff\r\nContent-Security-Policy: default-src 'none'; style-src 'unsafe-inline'; script-src 'unsafe-inline'; connect-src 'self'\r\n");
+    if status == Status::MethodNotAllowed {
+        out.str("Allow: GET, HEAD\r\n");
+    }
+    out.str("\r\n");
+}
+
+/// A whole error response: the head and a one-line text body.
+pub fn error(out: &mut dyn super::Out, status: Status) {
+    let body_len = 3 + 1 + status.reason().len() + 1;
+    head(out, status, "text/plain; charset=utf-8", body_len);
+    out.u32(status.code().into());
+    out.str(" ");
+    out.str(status.reason());
+    out.str("\n");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(bytes: &[u8]) -> Parsed {
+        Parser::new().feed(bytes)
+    }
+
+    fn ok(route: Route) -> Parsed {
+        Parsed::Request(Request {
+            route,
+            head_only: false,
+        })
+    }
+
+    #[test]
+    fn the_three_paths_with_crlf_or_bare_lf_and_any_split() {
+        let req = b"GET /metrics HTTP/1.1\r\nHost: x\r\nAccept: */*\r\n\r\n";
+        assert_eq!(parse(req), ok(Route::Metrics));
+        for split in 0..req.len() {
+            let mut p = Parser::new();
+            let first = p.feed(&req[..split]);
+            assert_eq!(first, Parsed::More, "split at {split}");
+            assert_eq!(p.feed(&req[split..]), ok(Route::Metrics));
+        }
+        assert_eq!(parse(b"GET / HTTP/1.0\n\n"), ok(Route::Page));
+        assert_eq!(
+            parse(b"\r\nGET /status.json?x=1 HTTP/1.1\r\n\r\n"),
+            ok(Route::Json)
+        );
+        assert_eq!(
+            parse(b"HEAD /index.html HTTP/1.1\r\n\r\n"),
+            Parsed::Request(Request {
+                route: Route::Page,
+                head_only: true
+            })
+        );
+    }
+
+    #[test]
+    fn an_unfinished_request_waits_for_more() {
+        assert_eq!(parse(b"GET / HTTP/1.1\r\nHost: x\r\n"), Parsed::More);
+        assert_eq!(parse(b"GE"), Parsed::More);
+    }
+
+    #[test]
+    fn other_methods_are_refused_not_served() {
+        for m in [
+            "POST", "PUT", "DELETE", "PATCH", "OPTIONS", "TRACE", "CONNECT",
+        ] {
+            let req = format!("{m} / HTTP/1.1\r\n\r\n");
+            assert_eq!(
+                parse(req.as_bytes()),
+                Parsed::Refused(Status::MethodNotAllowed),
+                "{m}"
+            );
+        }
+        assert_eq!(
+            parse(b"BREW / HTTP/1.1\r\n\r\n"),
+            Parsed::Refused(Status::NotImplemented)
+        );
+        assert_eq!(
+            parse(b"get / HTTP/1.1\r\n\r\n"),
+            Parsed::Refused(Status::NotImplemented)
+        );
+        // A POST is refused at its request line: its body is never read.
+        assert_eq!(
+            parse(b"POST /metrics HTTP/1.1\r\nContent-Length: 5\r\n\r\nhello"),
+            Parsed::Refused(Status::MethodNotAllowed)
+        );
+    }
+
+    #[test]
+    fn unknown_and_traversing_paths_are_not_found() {
+        for path in [
+            "/../etc/passwd",
+            "/%2e%2e/",
+            "/metrics/",
+            "//",
+            "/status.json/../metrics",
+        ] {
+            let req = format!("GET {path} HTTP/1.1\r\n\r\n");
+            assert_eq!(
+                parse(req.as_bytes()),
+                Parsed::Refused(Status::NotFound),
+                "{path}"
+            );
+        }
+        assert_eq!(
+            parse(b"GET http://x/ HTTP/1.1\r\n\r\n"),
+            Parsed::Refused(Status::BadRequest)
+        );
+        assert_eq!(
+            parse(b"GET * HTTP/1.1\r\n\r\n"),
+            Parsed::Refused(Status::BadRequest)
+        );
+    }
+
+    #[test]
+    fn malformed_lines_and_non_ascii_are_bad_requests() {
+        for req in [
+            &b"GET /\r\n\r\n"[..],
+            b"GET  / HTTP/1.1\r\n\r\n",
+            b"GET / HTTP/1.1 x\r\n\r\n",
+            b"GET /\xff HTTP/1.1\r\n\r\n",
+            b"GET /\x00 HTTP/1.1\r\n\r\n",
+            b"GET / HTTP/1.1\r\nHost: a\x00b\r\n\r\n",
+            b"GET / HTTPS/1.1\r\n\r\n",
+            b"\r\n\r\n\r\n\r\n\r\n",
+        ] {
+            assert_eq!(parse(req), Parsed::Refused(Status::BadRequest), "{req:?}");
+        }
+        assert_eq!(
+            parse(b"GET / HTTP/2.0\r\n\r\n"),
+            Parsed::Refused(Status::VersionNotSupported)
+        );
+        // Non-UTF-8 in a header value is obs-text: tolerated, never read.
+        assert_eq!(
+            parse(b"GET / HTTP/1.1\r\nX: \xff\xfe\r\n\r\n"),
+            ok(Route::Page)
+        );
+    }
+
+    #[test]
+    fn oversize_request_lines_and_headers_are_refused_at_the_limit() {
+        let long = format!("GET /{} HTTP/1.1\r\n\r\n", "a".repeat(LINE_MAX));
+        let mut p = Parser::new();
+        assert_eq!(p.feed(long.as_bytes()), Parsed::Refused(Status::UriTooLong));
+        // Without an end, it is refused as soon as the limit is passed.
+        assert_eq!(
+            Parser::new().feed(&[b'a'; LINE_MAX + 1]),
+            Parsed::Refused(Status::UriTooLong)
+        );
+        let mut p = Parser::new();
+        assert_eq!(p.feed(b"GET / HTTP/1.1\r\n"), Parsed::More);
+        assert_eq!(
+            p.feed(&[b'h'; HEADERS_MAX + 1]),
+            Parsed::Refused(Status::HeadersTooLarge)
+        );
+        // Exactly at the limit is fine.
+        let mut p = Parser::new();
+        p.feed(b"GET / HTTP/1.1\r\n");
+        let mut header = vec![b'x'; HEADERS_MAX - 4];
+        header.extend_from_slice(b"\r\n\r\n");
+        assert_eq!(p.feed(&header), ok(Route::Page));
+    }
+
+    #[test]
+    fn pipelined_requests_after_the_first_are_ignored() {
+        let mut p = Parser::new();
+        let both = b"GET /metrics HTTP/1.1\r\n\r\nGET / HTTP/1.1\r\n\r\n";
+        assert_eq!(p.feed(both), ok(Route::Metrics));
+        assert_eq!(p.feed(b"more"), ok(Route::Metrics));
+    }
+
+    #[test]
+    fn responses_close_the_connection_and_say_their_length() {
+        struct All(Vec<u8>);
+        impl super::super::Out for All {
+            fn bytes(&mut self, b: &[u8]) {
+                self.0.extend_from_slice(b);
+            }
+        }
+        let mut a = All(Vec::new());
+        error(&mut a, Status::MethodNotAllowed);
+        let text = String::from_utf8(a.0).unwrap();
+        let (head, body) = text.split_once("\r\n\r\n").unwrap();
+        assert!(
+            head.starts_with("HTTP/1.1 405 Method Not Allowed\r\n"),
+            "{head}"
+        );
+        assert!(head.contains("\r\nConnection: close"));
+        assert!(head.contains("\r\nAllow: GET, HEAD"));
+        assert!(head.contains(&format!("\r\nContent-Length: {}", body.len())));
+        assert_eq!(body, "405 Method Not Allowed\n");
+    }
+}
