@@ -20,7 +20,7 @@
 //!   `RRI_GATEWAY` (IPv4, default none): the boards' network besides the
 //!   device address from Description.xml (`$OUT_DIR/network.rs`).
 //! - `RRI_HTTP_PORT`: the diagnostics service's TCP port on the boards
-//!   (default 80; `0` compiles it out: cfg `rri_http` is set otherwise).
+//!   (default 80; `0` compiles it out of the firmware binary).
 //! - `RRI_SENSOR`: the integrator's sensor, one Rust file (relative paths
 //!   from the workspace root; default `firmware/src/sensors/distance.rs`,
 //!   the demo's), made module `sensors::chosen` (`$OUT_DIR/sensor.rs`).
@@ -36,7 +36,8 @@ fn main() {
     let manifest =
         PathBuf::from(setting("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
     let workspace = manifest.parent().unwrap_or(&manifest).to_path_buf();
-    mcu_link_args(&workspace, &manifest);
+    // The panic-check image (`src/bin/`) links for the MCU.
+    mcu_link_args(&workspace, manifest.join("src").join("bin").is_dir());
 
     for var in [
         "RRI_GSI_DIR",
@@ -198,10 +199,10 @@ fn sensor(workspace: &Path, manifest: &Path, errors: &mut Vec<String>) -> String
     format!("{header}#[path = {text:?}]\npub mod chosen;\n")
 }
 
-/// `RRI_HTTP_PORT` (default 80, 0 = the service compiled out: no cfg
-/// `rri_http`), as a constant for `network.rs`.
+/// `RRI_HTTP_PORT` (default 80, 0 = the service compiled out: the
+/// firmware binary's build script then sets no cfg `rri_http`), as a
+/// constant for `network.rs`.
 fn http_port(errors: &mut Vec<String>) -> String {
-    println!("cargo::rustc-check-cfg=cfg(rri_http)");
     let port = match setting("RRI_HTTP_PORT") {
         None => 80,
         Some(v) => v.trim().parse::<u16>().unwrap_or_else(|_| {
@@ -211,9 +212,6 @@ fn http_port(errors: &mut Vec<String>) -> String {
             80
         }),
     };
-    if port != 0 {
-        println!("cargo:rustc-cfg=rri_http");
-    }
     format!(
         "/// `RRI_HTTP_PORT`: the diagnostics service's TCP port (default 80; 0:\n\
          /// not compiled in).\n\
@@ -360,38 +358,6 @@ fn fail(summary: &str) -> ! {
     std::process::exit(1);
 }
 
-/// Link arguments for the firmware's binaries on the MCU only: the host
-/// build (tests) must not see them. Board binaries live in `src/bin/`;
-/// cargo refuses `rustc-link-arg-bins` for a package without any.
-/// `rri-board.x` is written by hal-board's build script: the board's memory
-/// map and cortex-m-rt's linker script.
-fn mcu_link_args(workspace: &Path, manifest: &Path) {
-    let has_bins = manifest.join("src").join("bin").is_dir();
-    if setting("CARGO_CFG_TARGET_OS").as_deref() == Some("none") && has_bins {
-        println!("cargo:rustc-link-search={}", workspace.display());
-        println!(
-            "cargo:rerun-if-changed={}",
-            workspace.join("memory.x").display()
-        );
-        println!("cargo:rustc-link-arg-bins=--nmagic");
-        println!("cargo:rustc-link-arg-bins=-Trri-board.x");
-        println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
-        flip_link_notice();
-    }
-}
-
-/// `.cargo/flip-link-or-lld` links through flip-link when it is installed
-/// (stack overflow faults instead of corrupting statics) and through plain
-/// rust-lld otherwise: say which, so a build without the protection is
-/// never silent.
-fn flip_link_notice() {
-    println!("cargo:rerun-if-env-changed=PATH");
-    let found = std::env::var_os("PATH").is_some_and(|paths| {
-        std::env::split_paths(&paths).any(|dir| dir.join("flip-link").is_file())
-    });
-    if !found {
-        println!(
-            "cargo::warning=flip-link is not installed: linking without stack overflow protection (install it with `cargo install flip-link`)"
-        );
-    }
-}
+// `mcu_link_args`: shared with the firmware binary's build script
+// (`firmware/rri-sensor/build.rs`), which links the same way.
+include!("link_args.rs");

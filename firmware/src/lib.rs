@@ -46,7 +46,6 @@ pub mod baseline;
 pub mod bench;
 pub mod codec;
 pub mod demo;
-pub mod diag;
 pub mod engine;
 pub mod fragments;
 pub mod layout;

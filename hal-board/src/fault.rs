@@ -40,7 +40,7 @@ unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
         scb.mmfar.read(),
         scb.bfar.read()
     );
-    crate::reset::ram::note(|r| r.fault(frame.pc(), frame.lr()));
+    crate::reset::ram::note(&mut |r| r.fault(frame.pc(), frame.lr()));
     crate::board::reset()
 }
 

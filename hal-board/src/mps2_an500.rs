@@ -189,7 +189,7 @@ unsafe fn DefaultHandler(irqn: i16) {
         // NMI: the watchdog ran out. Reset now rather than at its second
         // timeout, and say so to the next start.
         -14 => {
-            crate::reset::ram::note(|r| r.watchdog());
+            crate::reset::ram::note(&mut |r| r.watchdog());
             cortex_m::peripheral::SCB::sys_reset()
         }
         _ => {
@@ -356,7 +356,7 @@ pub(crate) fn reset() -> ! {
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     if let Some(at) = info.location() {
-        crate::reset::ram::note(|r| r.panic(at.file(), at.line()));
+        crate::reset::ram::note(&mut |r| r.panic(at.file(), at.line()));
     }
     defmt::error!("panic: {}", defmt::Display2Format(info));
     exit(101)

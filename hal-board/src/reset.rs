@@ -127,6 +127,7 @@ impl CrashRecord {
         r
     }
 
+    #[inline(never)]
     const fn sum(&self) -> u32 {
         let mut s = self.magic ^ self.kind.rotate_left(3) ^ self.pc.rotate_left(7);
         s ^= self.lr.rotate_left(11) ^ self.line.rotate_left(13) ^ self.file_len.rotate_left(17);
@@ -145,6 +146,7 @@ impl CrashRecord {
     }
 
     /// Notes a HardFault at `pc` (`lr`) before the reset.
+    #[inline(never)]
     pub fn fault(&mut self, pc: u32, lr: u32) {
         self.kind = code(Cause::HardFault);
         self.pc = pc;
@@ -153,6 +155,7 @@ impl CrashRecord {
     }
 
     /// Notes a panic at `file`:`line` before the reset.
+    #[inline(never)]
     pub fn panic(&mut self, file: &str, line: u32) {
         let bytes = file.as_bytes();
         let tail = bytes
@@ -243,7 +246,8 @@ pub(crate) mod ram {
 
     /// Changes the record in place, from a fault or panic handler (the
     /// board resets right after).
-    pub(crate) fn note(f: impl FnOnce(&mut CrashRecord)) {
+    #[inline(never)]
+    pub(crate) fn note(f: &mut dyn FnMut(&mut CrashRecord)) {
         // SAFETY: the reserved words; the handlers that call this never
         // return, and interrupts of lower priority cannot run meanwhile.
         let mut r = unsafe { core::ptr::read_volatile(place()) };

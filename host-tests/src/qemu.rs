@@ -100,7 +100,7 @@ pub fn build_board(
         .args([
             "build",
             "-p",
-            "rri-firmware",
+            "rri-sensor",
             "--bin",
             "rri-sensor",
             "--profile",

@@ -353,7 +353,7 @@ fn reset_after_logs() -> ! {
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     if let Some(at) = info.location() {
-        crate::reset::ram::note(|r| r.panic(at.file(), at.line()));
+        crate::reset::ram::note(&mut |r| r.panic(at.file(), at.line()));
     }
     match info.location() {
         Some(at) => defmt::error!(

@@ -1,5 +1,5 @@
 //! The host sensor's diagnostics: the firmware's own service
-//! (`rri_firmware::diag`: request parser, page, JSON, metrics), the same
+//! (`rri_diag`: request parser, page, JSON, metrics), the same
 //! bytes a board serves, from a thread on std sockets
 //! (`cargo sensor-host -- --http 127.0.0.1:8080`).
 //!
@@ -9,10 +9,10 @@
 //! [`CONNECTIONS`] at once; more are answered 503), the request head
 //! [`REQUEST_TIMEOUT`] to arrive (408), one request per connection.
 
-use rri_firmware::diag::events::{EventKind, Events};
-use rri_firmware::diag::http::{self, Parsed, Parser};
-use rri_firmware::diag::status::{Latency, LatencySource, LinkStatus, ResetInfo};
-use rri_firmware::diag::{Identity, LastBad, Out, Status};
+use rri_diag::events::{EventKind, Events};
+use rri_diag::http::{self, Parsed, Parser};
+use rri_diag::status::{Latency, LatencySource, LinkStatus, ResetInfo};
+use rri_diag::{Identity, LastBad, Out, Status};
 use rri_firmware::engine::Instant;
 use rri_firmware::snapshot::{Published, Snapshot};
 use std::io::{self, Read, Write};
@@ -90,7 +90,7 @@ impl Out for Bytes {
 pub fn answer(head: &[u8], id: &Identity, status: &Status) -> Vec<u8> {
     let mut out = Bytes(Vec::new());
     match Parser::new().feed(head) {
-        Parsed::Request(r) => rri_firmware::diag::respond(&mut out, r, id, status),
+        Parsed::Request(r) => rri_diag::respond(&mut out, r, id, status),
         Parsed::Refused(s) => http::error(&mut out, s),
         Parsed::More => http::error(&mut out, http::Status::RequestTimeout),
     }
@@ -176,7 +176,7 @@ fn connection(
     let status = diag.status(now());
     let mut out = Bytes(Vec::new());
     match verdict {
-        Parsed::Request(r) => rri_firmware::diag::respond(&mut out, r, id, &status),
+        Parsed::Request(r) => rri_diag::respond(&mut out, r, id, &status),
         Parsed::Refused(s) => http::error(&mut out, s),
         // The client closed before a whole request.
         Parsed::More => return Ok(()),

@@ -147,12 +147,12 @@ pub fn stats_line(s: &Stats) -> String {
 fn host_identity<S: Sensor<R, D>, R: RobotSet, D: DeviceSet>(
     opts: &SensorOptions,
     http_port: u16,
-) -> rri_firmware::diag::Identity {
+) -> rri_diag::Identity {
     let ip = match opts.listen {
         SocketAddr::V4(a) => a.ip().octets(),
         SocketAddr::V6(_) => [0; 4],
     };
-    rri_firmware::diag::Identity {
+    rri_diag::Identity {
         device: opts.device_name,
         device_type: layout::DEVICE_TYPE,
         device_class: layout::DEVICE_CLASS,

@@ -5,9 +5,9 @@
 //! cycle publishes; the cycle never does.
 
 use super::status::ResetCause;
-use crate::engine::{Endpoint, ErrorCode, Instant, SensorState};
 use core::cell::Cell;
 use critical_section::Mutex;
+use rri_firmware::engine::{Endpoint, ErrorCode, Instant, SensorState};
 
 /// Events kept.
 pub const EVENTS: usize = 16;

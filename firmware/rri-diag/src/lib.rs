@@ -1,21 +1,48 @@
-//! The device tells its own story over the network: a status page
+//! # rri-diag: the device tells its own story over the network
+//!
+//! A status page
 //! (`GET /`), the same as JSON (`GET /status.json`) and Prometheus
 //! metrics (`GET /metrics`), read-only, on a TCP port of the device's own
 //! address (`RRI_HTTP_PORT`, default 80; 0 compiles it out).
 //!
 //! A low-priority guest of the cycle. What it shows is what the cycle
-//! already publishes after each turn (the [`crate::snapshot::Snapshot`])
+//! already publishes after each turn (the [`rri_firmware::snapshot::Snapshot`])
 //! and what a few cells beside it hold ([`LastBad`], the fragment
 //! guard's reply latency, housekeeping's [`events::Events`]); it never
 //! holds the engine and the cycle never waits for it. On a board the
 //! parsing and rendering run on the background executor and only bytes
-//! cross to the network stack on the urgent one ([`serve`]); the host
+//! cross to the network stack on the urgent one (`serve`, feature `net`); the host
 //! sensor serves the same responses from a thread.
+//!
+//! A crate of its own so that it can be optimised for size (the root
+//! `Cargo.toml`'s `firmware` profile builds it at `opt-level = "z"`): none
+//! of it is on the cycle's path, and at the cycle's `opt-level = 3` its
+//! writers were inlined into every caller (tens of KiB of flash for the
+//! same bytes). The board's tasks (`tasks`, feature `board`) are
+//! defined here for the same reason.
 //!
 //! Everything here is written once for every form: [`http`] (the request
 //! parser and the response head), [`json`] and [`metrics`] over the
 //! [`out::Out`] sink, [`counters`] naming every counter once; the page
 //! ([`page`]) is static and renders the JSON in the browser.
+
+#![cfg_attr(not(test), no_std)]
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+// As in the firmware: no panicking index, no unwrap/expect, no explicit
+// panic outside the tests.
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::indexing_slicing,
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::unreachable,
+        clippy::todo,
+        clippy::unimplemented
+    )
+)]
 
 pub mod counters;
 pub mod events;
@@ -27,21 +54,25 @@ pub mod page;
 #[cfg(feature = "net")]
 pub mod serve;
 pub mod status;
+#[cfg(feature = "board")]
+pub mod tasks;
 mod view;
 
 pub use out::{Count, Out, Window};
 pub use status::{Identity, Status};
 
-use crate::codec::DecodeError;
-use crate::engine::{Endpoint, Instant};
 use core::cell::Cell;
 use critical_section::Mutex;
+use rri_firmware::codec::DecodeError;
+use rri_firmware::engine::{Endpoint, Instant};
 use status::{BadMessage, BAD_MESSAGE_BYTES};
 
-/// Writes the body of `route`.
-pub fn body(out: &mut dyn Out, route: http::Route, id: &Identity, s: &Status) {
-    match route {
-        http::Route::Page => out.str(page::PAGE),
+/// Writes the body of `request` (the page compressed when the client
+/// takes gzip).
+pub fn body(out: &mut dyn Out, request: http::Request, id: &Identity, s: &Status) {
+    match request.route {
+        http::Route::Page if request.gzip => out.bytes(page::PAGE_GZ),
+        http::Route::Page => out.str(page::NO_GZIP),
         http::Route::Json => json::write(out, id, s),
         http::Route::Metrics => metrics::write(out, id, s),
     }
@@ -51,15 +82,17 @@ pub fn body(out: &mut dyn Out, route: http::Route, id: &Identity, s: &Status) {
 /// length, from a counting pass) and, unless it is a `HEAD`, the body.
 pub fn respond(out: &mut dyn Out, request: http::Request, id: &Identity, s: &Status) {
     let mut count = Count::default();
-    body(&mut count, request.route, id, s);
+    body(&mut count, request, id, s);
+    let gzip = request.gzip && request.route == http::Route::Page;
     http::head(
         out,
         http::Status::Ok,
         request.route.content_type(),
         count.len,
+        gzip,
     );
     if !request.head_only {
-        body(out, request.route, id, s);
+        body(out, request, id, s);
     }
 }
 

@@ -10,8 +10,8 @@
 use super::counters::FAMILIES;
 use super::out::Out;
 use super::status::{Identity, Status};
-use crate::codec::DecodeErrorKind;
-use crate::engine::{Histogram, SensorState};
+use rri_firmware::codec::DecodeErrorKind;
+use rri_firmware::engine::{Histogram, SensorState};
 
 /// `# HELP` and `# TYPE` of one family.
 #[inline(never)]
@@ -72,12 +72,7 @@ pub fn write(o: &mut dyn Out, id: &Identity, s: &Status) {
 /// Who the device is, since when, why it started.
 #[inline(never)]
 fn info(o: &mut dyn Out, id: &Identity, s: &Status) {
-    family(
-        o,
-        "rri_info",
-        "gauge",
-        "The device, its firmware, board and sensor (always 1).",
-    );
+    family(o, "rri_info", "gauge", "Device, firmware, board, sensor.");
     o.str("rri_info{device=\"");
     o.label(id.device);
     o.str("\",version=\"");
@@ -95,22 +90,17 @@ fn info(o: &mut dyn Out, id: &Identity, s: &Status) {
         o,
         "rri_uptime_seconds",
         "gauge",
-        "Time since the device started.",
+        "Since start.",
         V::Seconds(s.now.as_micros()),
     );
     single(
         o,
         "rri_boots",
         "gauge",
-        "Starts since power-on (1 for the first).",
+        "Starts since power-on.",
         V::N(s.reset.boots.into()),
     );
-    family(
-        o,
-        "rri_last_reset",
-        "gauge",
-        "Why the device last started (1 for the cause).",
-    );
+    family(o, "rri_last_reset", "gauge", "Cause of the last start.");
     sample(
         o,
         "rri_last_reset",
@@ -123,12 +113,7 @@ fn info(o: &mut dyn Out, id: &Identity, s: &Status) {
 #[inline(never)]
 fn state(o: &mut dyn Out, s: &Status) {
     let snap = &s.snapshot;
-    family(
-        o,
-        "rri_state",
-        "gauge",
-        "The S2 sensor state: 1 for the current one, 0 for the others.",
-    );
+    family(o, "rri_state", "gauge", "S2 state (1: current).");
     for state in [
         SensorState::Undefined,
         SensorState::Connected,
@@ -143,7 +128,7 @@ fn state(o: &mut dyn Out, s: &Status) {
         o,
         "rri_error_code",
         "gauge",
-        "The S2 error code while in ERROR (112600, 112602), else 0.",
+        "S2 error code, else 0.",
         V::N(snap.error.map_or(0, |e| e.code().into())),
     );
     if let Some(at) = snap.last_message {
@@ -151,7 +136,7 @@ fn state(o: &mut dyn Out, s: &Status) {
             o,
             "rri_last_message_age_seconds",
             "gauge",
-            "Time since the last robot message that decoded.",
+            "Since the last good robot message.",
             V::Seconds(s.now.micros_since(at)),
         );
     }
@@ -159,7 +144,7 @@ fn state(o: &mut dyn Out, s: &Status) {
         o,
         "rri_link_up",
         "gauge",
-        "The Ethernet link is up (1) or down (0).",
+        "Link up.",
         V::N(s.link.up.into()),
     );
 }
@@ -183,7 +168,7 @@ fn counters(o: &mut dyn Out, id: &Identity, s: &Status) {
         o,
         "rri_decode_errors_total",
         "counter",
-        "Robot messages the decoder rejected, by kind.",
+        "Decode errors by kind.",
     );
     for kind in core::hint::black_box(DecodeErrorKind::ALL) {
         let v = st.decode_errors_of(kind);
@@ -198,7 +183,7 @@ fn counters(o: &mut dyn Out, id: &Identity, s: &Status) {
         o,
         "rri_robot_property_messages_total",
         "counter",
-        "Robot messages decoded, by property (M11).",
+        "Robot messages by property (M11).",
     );
     for (p, seen) in id.received.iter().zip(snap.robot_seen.iter()) {
         sample(
@@ -212,7 +197,7 @@ fn counters(o: &mut dyn Out, id: &Identity, s: &Status) {
         o,
         "rri_robot_property_interval_seconds",
         "gauge",
-        "Time between the last two messages of each robot property.",
+        "Interval of each robot property.",
     );
     for (p, seen) in id.received.iter().zip(snap.robot_seen.iter()) {
         sample(
@@ -226,7 +211,7 @@ fn counters(o: &mut dyn Out, id: &Identity, s: &Status) {
         o,
         "rri_events_total",
         "counter",
-        "Events logged (the page lists the last 16).",
+        "Events logged.",
         V::N(s.events.total().into()),
     );
 }
@@ -239,7 +224,7 @@ fn board(o: &mut dyn Out, s: &Status) {
             o,
             "rri_stack_bytes",
             "gauge",
-            "The stack's painted high-water mark and its budget.",
+            "Stack high-water marks and budget.",
         );
         for (kind, v) in [
             ("boot", stack.boot),
@@ -254,7 +239,7 @@ fn board(o: &mut dyn Out, s: &Status) {
             o,
             "rri_nic_rx_dropped_total",
             "counter",
-            "Frames the network chip dropped, by its own count.",
+            "Frames the network chip dropped.",
             V::N(n.rx_dropped.into()),
         );
         if n.fifo {
@@ -262,21 +247,21 @@ fn board(o: &mut dyn Out, s: &Status) {
                 o,
                 "rri_nic_rx_frames_total",
                 "counter",
-                "Frames the driver took from the network chip.",
+                "Frames taken from the network chip.",
                 V::N(n.rx_frames.into()),
             );
             single(
                 o,
                 "rri_nic_status_full_total",
                 "counter",
-                "Times the chip's receive status FIFO was full.",
+                "Receive status FIFO full.",
                 V::N(n.status_full.into()),
             );
             single(
                 o,
                 "rri_nic_fifo_max_bytes",
                 "gauge",
-                "The most bytes the chip's receive FIFO held.",
+                "Most bytes in the receive FIFO.",
                 V::N(n.fifo_max.into()),
             );
         }
@@ -289,12 +274,7 @@ fn board(o: &mut dyn Out, s: &Status) {
 #[inline(never)]
 fn latency(o: &mut dyn Out, h: &Histogram) {
     const NAME: &str = "rri_reply_latency_seconds";
-    family(
-        o,
-        NAME,
-        "histogram",
-        "Reply latency: robot message in to reply out (see /status.json latency.source).",
-    );
+    family(o, NAME, "histogram", "Robot message in to reply out.");
     let mut cumulative: u64 = 0;
     for (i, n) in h.buckets.iter().enumerate() {
         cumulative += u64::from(*n);
@@ -320,7 +300,7 @@ fn latency(o: &mut dyn Out, h: &Histogram) {
         o,
         "rri_reply_latency_max_microseconds",
         "gauge",
-        "The longest reply latency so far.",
+        "Longest reply latency.",
         V::N(h.max_us.into()),
     );
 }

@@ -12,7 +12,7 @@
 //!
 //! Every string that came from a file (the GSI folder) or from the network
 //! (a bad robot message) goes through the escaping writers here
-//! ([`Out::html`], [`Out::json`], [`Out::label`] and their `_bytes`
+//! (`html`, `json`, `label` and their `_bytes`
 //! variants for bytes that may not be UTF-8); nothing else writes them.
 
 /// A sink for a response: it never fails and never allocates; what does
@@ -125,7 +125,7 @@ impl dyn Out + '_ {
     }
 
     /// Appends bytes that may be anything (a bad robot message) for HTML:
-    /// printable ASCII as [`Out::html`] does, every other byte as `\xNN`
+    /// printable ASCII as `html` does, every other byte as `\xNN`
     /// (tab, CR and LF as `\t`, `\r`, `\n`), so the reader sees exactly
     /// what arrived and no byte can open markup.
     #[inline(never)]
@@ -148,7 +148,7 @@ impl dyn Out + '_ {
     }
 
     /// Appends bytes that may be anything inside a JSON string: as
-    /// [`Out::json`], and every byte from 0x80 as `\u00NN` (the byte's
+    /// `json`, and every byte from 0x80 as `\u00NN` (the byte's
     /// Latin-1 character), so the string is valid JSON whatever arrived
     /// and each byte can be read back.
     #[inline(never)]

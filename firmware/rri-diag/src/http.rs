@@ -64,6 +64,9 @@ pub struct Request {
     pub route: Route,
     /// `HEAD`: the head alone.
     pub head_only: bool,
+    /// The client takes gzip (`Accept-Encoding` names it): the page is
+    /// kept compressed ([`super::page`]). `gzip;q=0` is taken as yes.
+    pub gzip: bool,
 }
 
 /// Every status the service sends.
@@ -158,7 +161,17 @@ pub struct Parser {
     stage: Stage,
     line: heapless::Vec<u8, LINE_MAX>,
     header_bytes: usize,
+    /// Bytes of `accept-encoding:` matched at the start of this header
+    /// line; [`NOT_IT`] once it is another header.
+    name_at: u8,
+    /// Bytes of `gzip` matched in an `Accept-Encoding` value.
+    gzip_at: u8,
 }
+
+/// The header this parser looks at, and the one token it looks for.
+const ACCEPT_ENCODING: &[u8] = b"accept-encoding:";
+const GZIP: &[u8] = b"gzip";
+const NOT_IT: u8 = u8::MAX;
 
 impl Default for Parser {
     fn default() -> Self {
@@ -173,7 +186,33 @@ impl Parser {
             stage: Stage::Line { empty: 0 },
             line: heapless::Vec::new(),
             header_bytes: 0,
+            name_at: 0,
+            gzip_at: 0,
         }
+    }
+
+    /// Follows one header byte (not a line end) for `Accept-Encoding:
+    /// …gzip…`; `true` once the token is seen.
+    fn accept_encoding(&mut self, b: u8) -> bool {
+        let Some(&want) = ACCEPT_ENCODING.get(usize::from(self.name_at)) else {
+            if self.name_at == NOT_IT {
+                return false;
+            }
+            // In the value: match `gzip`, case-insensitively.
+            let next = GZIP.get(usize::from(self.gzip_at)).copied();
+            self.gzip_at = if next == Some(b.to_ascii_lowercase()) {
+                self.gzip_at + 1
+            } else {
+                u8::from(b.eq_ignore_ascii_case(&b'g'))
+            };
+            return usize::from(self.gzip_at) == GZIP.len();
+        };
+        self.name_at = if b.to_ascii_lowercase() == want {
+            self.name_at + 1
+        } else {
+            NOT_IT
+        };
+        false
     }
 
     /// The verdict so far, without more bytes.
@@ -231,13 +270,17 @@ impl Parser {
         if self.header_bytes > HEADERS_MAX {
             return Stage::Done(Parsed::Refused(Status::HeadersTooLarge));
         }
+        let mut request = request;
         match b {
             // An empty line ends the headers (CRLF, or a bare LF).
             b'\n' if at_line_start => Stage::Done(Parsed::Request(request)),
-            b'\n' => Stage::Headers {
-                at_line_start: true,
-                request,
-            },
+            b'\n' => {
+                (self.name_at, self.gzip_at) = (0, 0);
+                Stage::Headers {
+                    at_line_start: true,
+                    request,
+                }
+            }
             // The CR of an empty line's CRLF leaves us at the line's start.
             b'\r' => Stage::Headers {
                 at_line_start,
@@ -245,10 +288,13 @@ impl Parser {
             },
             // A NUL anywhere in a header is malformed (RFC 9110 §5.5).
             0 => Stage::Done(Parsed::Refused(Status::BadRequest)),
-            _ => Stage::Headers {
-                at_line_start: false,
-                request,
-            },
+            _ => {
+                request.gzip |= self.accept_encoding(b);
+                Stage::Headers {
+                    at_line_start: false,
+                    request,
+                }
+            }
         }
     }
 }
@@ -304,7 +350,11 @@ fn request_line(line: &[u8]) -> Result<Request, Status> {
         b"/metrics" => Route::Metrics,
         _ => return Err(Status::NotFound),
     };
-    Ok(Request { route, head_only })
+    Ok(Request {
+        route,
+        head_only,
+        gzip: false,
+    })
 }
 
 /// RFC 9110 §5.6.2 token characters.
@@ -316,7 +366,7 @@ fn is_tchar(b: u8) -> bool {
 /// `content_type`. Every response closes the connection and may not be
 /// cached; the page may load nothing from anywhere (its CSS, script and
 /// SVG are inline) and fetch only from the device itself.
-pub fn head(out: &mut dyn super::Out, status: Status, content_type: &str, len: usize) {
+pub fn head(out: &mut dyn super::Out, status: Status, content_type: &str, len: usize, gzip: bool) {
     out.str("HTTP/1.1 ");
     out.u32(status.code().into());
     out.str(" ");
@@ -329,13 +379,16 @@ pub fn head(out: &mut dyn super::Out, status: Status, content_type: &str, len: u
     if status == Status::MethodNotAllowed {
         out.str("Allow: GET, HEAD\r\n");
     }
+    if gzip {
+        out.str("Content-Encoding: gzip\r\nVary: Accept-Encoding\r\n");
+    }
     out.str("\r\n");
 }
 
 /// A whole error response: the head and a one-line text body.
 pub fn error(out: &mut dyn super::Out, status: Status) {
     let body_len = 3 + 1 + status.reason().len() + 1;
-    head(out, status, "text/plain; charset=utf-8", body_len);
+    head(out, status, "text/plain; charset=utf-8", body_len, false);
     out.u32(status.code().into());
     out.str(" ");
     out.str(status.reason());
@@ -354,6 +407,7 @@ mod tests {
         Parsed::Request(Request {
             route,
             head_only: false,
+            gzip: false,
         })
     }
 
@@ -376,8 +430,37 @@ mod tests {
             parse(b"HEAD /index.html HTTP/1.1\r\n\r\n"),
             Parsed::Request(Request {
                 route: Route::Page,
-                head_only: true
+                head_only: true,
+                gzip: false,
             })
+        );
+    }
+
+    #[test]
+    fn accept_encoding_gzip_is_seen_in_any_case_and_split() {
+        let req =
+            b"GET / HTTP/1.1\r\nAccept: text/html\r\naccept-Encoding: br, GZip, deflate\r\n\r\n";
+        let gz = Parsed::Request(Request {
+            route: Route::Page,
+            head_only: false,
+            gzip: true,
+        });
+        for split in 0..req.len() {
+            let mut p = Parser::new();
+            p.feed(&req[..split]);
+            assert_eq!(p.feed(&req[split..]), gz, "split at {split}");
+        }
+        for no in [
+            &b"GET / HTTP/1.1\r\nAccept-Encoding: br\r\n\r\n"[..],
+            b"GET / HTTP/1.1\r\nX-Accept-Encoding: gzip\r\n\r\n",
+            b"GET / HTTP/1.1\r\nAccept: gzip\r\n\r\n",
+            b"GET / HTTP/1.1\r\nAccept-Encoding: gzi\r\nX: p\r\n\r\n",
+        ] {
+            assert_eq!(parse(no), ok(Route::Page), "{no:?}");
+        }
+        assert_eq!(
+            parse(b"GET / HTTP/1.1\r\nAccept-Encoding: ggzip\r\n\r\n"),
+            gz
         );
     }
 

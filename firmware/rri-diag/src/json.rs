@@ -7,8 +7,8 @@ use super::events::EventKind;
 use super::out::Out;
 use super::status::{Identity, Status};
 use super::view;
-use crate::codec::DecodeErrorKind;
-use crate::engine::Endpoint;
+use rri_firmware::codec::DecodeErrorKind;
+use rri_firmware::engine::Endpoint;
 
 /// The JSON layout's version: raised when a field changes meaning or
 /// goes away (new fields do not raise it).
@@ -131,7 +131,7 @@ pub fn write(out: &mut dyn Out, id: &Identity, s: &Status) {
         l.num("sum_us", h.total_us);
         l.array("buckets", h.buckets.iter().enumerate(), &mut |o, (i, n)| {
             o.str("{\"below_us\":");
-            match crate::engine::Histogram::bucket_limit_us(i) {
+            match rri_firmware::engine::Histogram::bucket_limit_us(i) {
                 Some(limit) => o.u32(limit),
                 None => o.str("null"),
             }
@@ -293,7 +293,7 @@ fn config(c: &mut Members<'_>, id: &Identity) {
     c.flag("dry_run", id.config.dry_run);
     c.num("send_period_ms", id.config.send_period_ms.into());
     let mut property =
-        |o: &mut dyn Out, (i, p, robot): (usize, &crate::schema::PropertyInfo, bool)| {
+        |o: &mut dyn Out, (i, p, robot): (usize, &rri_firmware::schema::PropertyInfo, bool)| {
             o.str("{");
             let mut m = Members::new(o);
             m.text("name", p.name);

@@ -5,14 +5,14 @@
 //! Nothing here is read from the engine while the cycle runs: the
 //! engine's part is the [`Snapshot`] the cycle already publishes after
 //! every turn, the rest comes from cells the cycle, the fragment guard
-//! and housekeeping write into ([`super::Board`]: the bad message, the
+//! and housekeeping write into (the bad message, the
 //! reply latency at the driver, the events) and from the board.
 
 use super::events::EventLog;
-use crate::codec::DecodeErrorKind;
-use crate::engine::{Config, Endpoint, Histogram, Instant};
-use crate::schema::{PropertyInfo, Protocol};
-use crate::snapshot::Snapshot;
+use rri_firmware::codec::DecodeErrorKind;
+use rri_firmware::engine::{Config, Endpoint, Histogram, Instant};
+use rri_firmware::schema::{PropertyInfo, Protocol};
+use rri_firmware::snapshot::Snapshot;
 
 /// Who the device is and how it is configured: fixed for a run.
 #[derive(Clone, Copy, Debug)]
@@ -61,7 +61,7 @@ pub struct Identity {
 pub enum LatencySource {
     /// On a board: the driver handing over the robot message's last frame
     /// → the driver taking the reply's first frame (the fragment guard's
-    /// clock, [`crate::fragments::Link`]).
+    /// clock, `rri_firmware::fragments::Link`).
     Driver,
     /// On the host sensor: the socket's receive → the reply handed to the
     /// socket (the engine's own figure).

@@ -3,8 +3,8 @@
 
 use super::events::EventKind;
 use super::out::Out;
-use crate::engine::{Config, Endpoint, Pinned};
-use crate::schema::Protocol;
+use rri_firmware::engine::{Config, Endpoint, Pinned};
+use rri_firmware::schema::Protocol;
 
 /// `a.b.c.d:port`.
 pub fn endpoint(o: &mut dyn Out, e: Endpoint) {

@@ -73,7 +73,7 @@ const TCP_SOCKET: usize = if layout::MAX_RECEIVE_LEN > layout::MAX_SEND_LEN {
 /// The network stack's sockets: the channel's (two for TCP: the served
 /// connection and the standby) and the diagnostics service's.
 #[cfg(rri_http)]
-const SOCKETS: usize = 2 + rri_firmware::diag::serve::SLOTS;
+const SOCKETS: usize = 2 + rri_diag::serve::SLOTS;
 #[cfg(not(rri_http))]
 const SOCKETS: usize = 2;
 /// The watchdog resets the board when the cycle stops turning this long.
@@ -149,7 +149,21 @@ fn main() -> ! {
         _ => None,
     };
     #[cfg(rri_http)]
-    let mut http = diagnostics::http::Parts::build(diagnostics::identity(mac));
+    let mut http = match rri_diag::tasks::Parts::build(diagnostics::identity(mac)) {
+        Some(parts) => parts,
+        None => defmt::panic!("the diagnostics' parts were built twice"),
+    };
+    #[cfg(rri_http)]
+    defmt::info!(
+        "diagnostics: http://{}.{}.{}.{}:{}/ ({} connections at once; {} bytes of .diag_ram)",
+        ADDRESS[0],
+        ADDRESS[1],
+        ADDRESS[2],
+        ADDRESS[3],
+        rri_firmware::network::HTTP_PORT,
+        rri_diag::serve::SLOTS,
+        hal_board::sections::diag_ram_bytes()
+    );
     #[cfg(not(rri_http))]
     let _ = mac;
     let Some((writer, reader)) = SAMPLES.split() else {
@@ -174,8 +188,8 @@ fn main() -> ! {
         #[cfg(feature = "bench")]
         spawn!(s, bench_log());
         #[cfg(rri_http)]
-        for (slot, half, renderer, id) in http.services() {
-            spawn!(s, diagnostics::http::service(slot, half, renderer, id));
+        for token in http.services(diagnostics::status) {
+            s.spawn(token);
         }
     })
 }
@@ -190,7 +204,7 @@ fn start_network(
     driver: Driver,
     seed: u64,
     reader: SampleReader<'static, Samples>,
-    #[cfg(rri_http)] http: Option<diagnostics::http::Urgent>,
+    #[cfg(rri_http)] http: Option<rri_diag::tasks::Urgent>,
 ) {
     let urgent: SendSpawner = board::start_urgent_executor();
     spawn!(
@@ -212,7 +226,7 @@ async fn network(
     driver: Driver,
     seed: u64,
     reader: SampleReader<'static, Samples>,
-    #[cfg(rri_http)] http: Option<diagnostics::http::Urgent>,
+    #[cfg(rri_http)] http: Option<rri_diag::tasks::Urgent>,
 ) {
     // SAFETY: this task runs on the urgent executor and spawns onto it.
     let spawner = unsafe { Spawner::for_current_executor() }.await;
@@ -245,8 +259,11 @@ async fn network(
     spawn!(spawner, net_runner(runner));
     spawn!(spawner, cycle(stack, reader));
     #[cfg(rri_http)]
-    if let Some(http) = http {
-        diagnostics::http::start_urgent(spawner, stack, http);
+    for token in http
+        .into_iter()
+        .flat_map(|h| h.sockets(stack, rri_firmware::network::HTTP_PORT))
+    {
+        spawner.spawn(token);
     }
 }
 

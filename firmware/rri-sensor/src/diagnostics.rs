@@ -1,0 +1,152 @@
+//! The device's own story, on the board: what the diagnostics service
+//! (`rri_diag`) shows and the tasks that serve it.
+//!
+//! - The cycle keeps the last bad robot message ([`LAST_BAD`], after the
+//!   message was dropped) and the fragment guard times the replies at
+//!   the driver (`LINK`); housekeeping logs events ([`EVENTS`]) by
+//!   comparing the snapshots the cycle publishes.
+//! - With cfg `rri_http` (`RRI_HTTP_PORT`, default 80; 0 compiles it
+//!   out) the service's tasks (`rri_diag::tasks`): per connection slot one
+//!   on the urgent executor that only moves bytes, one on the background
+//!   executor that parses and renders, their buffers in `.diag_ram` (the
+//!   NUCLEO boards' DMA SRAM, beside the Ethernet rings: nothing from the
+//!   DTCM). This file gives them the board's status ([`status`]) and who
+//!   the device is ([`identity`]).
+
+use crate::{board, LINK, PUBLISHED};
+use rri_diag::events::{EventKind, Events};
+use rri_diag::status::{
+    Identity, LatencySource, LinkStatus, NicFigures, ResetInfo, StackFigures, Status,
+};
+use rri_diag::LastBad;
+use rri_firmware::engine::Instant;
+use rri_firmware::snapshot::Snapshot;
+
+/// The last robot message the decoder rejected (the cycle writes it).
+pub static LAST_BAD: LastBad = LastBad::new();
+/// What happened (housekeeping writes it).
+pub static EVENTS: Events = Events::new();
+
+/// Why the board started, set once at start-up.
+static RESET: critical_section::Mutex<core::cell::Cell<Option<ResetInfo>>> =
+    critical_section::Mutex::new(core::cell::Cell::new(None));
+
+/// Device time now.
+pub fn now() -> Instant {
+    Instant(embassy_time::Instant::now().as_micros())
+}
+
+/// At start-up: keeps why the board started and logs it as the first
+/// event.
+pub fn started(report: hal_board::reset::Report) {
+    let info = ResetInfo::from_board(report);
+    critical_section::with(|cs| RESET.borrow(cs).set(Some(info)));
+    EVENTS.push(now(), EventKind::Started(info.cause));
+    match info.pc {
+        Some((pc, lr)) => defmt::warn!(
+            "last reset: {=str} at PC {=u32:#010x} LR {=u32:#010x} (start {=u32})",
+            info.cause.name(),
+            pc,
+            lr,
+            info.boots
+        ),
+        None => defmt::info!(
+            "last reset: {=str} (start {=u32})",
+            info.cause.name(),
+            info.boots
+        ),
+    }
+}
+
+/// Housekeeping, after each look at the cycle: the events between the
+/// last snapshot and this one, and the link's changes.
+pub fn note(last: &Snapshot, now_snap: &Snapshot, link: &mut hal_board::LinkInfo) {
+    let at = now();
+    if now_snap.state != last.state || now_snap.error != last.error {
+        EVENTS.push(at, EventKind::State(now_snap.state, now_snap.error));
+    }
+    if now_snap.stats.timeouts > last.stats.timeouts {
+        EVENTS.push(at, EventKind::TimeOut);
+    }
+    if now_snap.stats.max_lost_exceeded > last.stats.max_lost_exceeded {
+        EVENTS.push(at, EventKind::MaxLost);
+    }
+    if let Some(peer) = now_snap.peer {
+        if now_snap.peer != last.peer {
+            EVENTS.push(at, EventKind::Peer(peer));
+        }
+    }
+    let seen = board::link();
+    if seen != *link {
+        EVENTS.push(
+            at,
+            if seen.up {
+                EventKind::LinkUp(seen.speed_mbps, seen.full_duplex)
+            } else {
+                EventKind::LinkDown
+            },
+        );
+        *link = seen;
+    }
+}
+
+/// Everything that moves, as of now (the service copies it once per
+/// response).
+pub fn status(out: &mut Option<Status>) {
+    let link = board::link();
+    let stack = hal_board::stack::high_water();
+    let snapshot = PUBLISHED.latest();
+    *out = Some(Status {
+        snapshot,
+        now: now(),
+        link: LinkStatus {
+            up: link.up,
+            speed_mbps: link.speed_mbps,
+            full_duplex: link.full_duplex,
+        },
+        nic: board::nic_counters().map(|n| NicFigures {
+            rx_frames: n.rx_frames,
+            rx_dropped: n.rx_dropped,
+            status_full: n.status_full,
+            fifo_max: n.fifo_max,
+            fifo: n.fifo,
+        }),
+        stack: Some(StackFigures {
+            boot: stack.boot as u32,
+            running: stack.running as u32,
+            size: stack.size as u32,
+        }),
+        latency: rri_diag::status::Latency {
+            source: LatencySource::Driver,
+            histogram: LINK.latency(),
+        },
+        bad: LAST_BAD.get(),
+        events: EVENTS.copy(),
+        reset: critical_section::with(|cs| RESET.borrow(cs).get()).unwrap_or(ResetInfo::HOST),
+    });
+}
+
+/// Who the device is, for the service.
+pub fn identity(mac: Option<[u8; 6]>) -> Identity {
+    use rri_firmware::layout;
+    Identity {
+        device: layout::DEVICE_NAME,
+        device_type: layout::DEVICE_TYPE,
+        device_class: layout::DEVICE_CLASS,
+        version: env!("CARGO_PKG_VERSION"),
+        commit: rri_firmware::network::COMMIT,
+        board: board::NAME,
+        sensor: rri_firmware::sensors::active_name(),
+        sensor_file: rri_firmware::sensors::ACTIVE_FILE,
+        mac,
+        ip: crate::ADDRESS,
+        prefix: rri_firmware::network::PREFIX_LEN,
+        gateway: rri_firmware::network::GATEWAY,
+        protocol: layout::CHANNEL_PROTOCOL,
+        port: layout::CHANNEL_PORT,
+        http_port: rri_firmware::network::HTTP_PORT,
+        config: layout::ENGINE_CONFIG,
+        received: &layout::RECEIVED_INFO,
+        sent: &layout::SENT_INFO,
+    }
+}
