@@ -218,7 +218,9 @@ where
             &mut tx_meta,
             tx.as_flattened_mut(),
         );
-        if socket.bind(port).is_err() {
+        let bound = socket.bind(port);
+        link.channel_open();
+        if bound.is_err() {
             engine.init_failed();
             // S2: ERROR 112600 for good; keep the engine's clock-driven work
             // alive so the state stays readable.
@@ -244,13 +246,19 @@ where
                     let before = monitor.count();
                     let outcome = engine.on_message(app, clock, from, bytes, received, reply);
                     let after = monitor.count();
+                    // Before the send, which may wait for room that only
+                    // the runner's egress (held until now) makes.
+                    link.turn_done(matches!(outcome, Outcome::Reply { .. }));
                     if let Outcome::Reply { to, len } = outcome {
                         send_datagram(&socket, engine, reply, to, len).await;
                     }
                     exchange(link, engine);
                     monitor.message(engine, bytes, from, &outcome, (before, after));
                 }
-                Either::First(Err(RecvError::Truncated)) => engine.datagram_too_long(),
+                Either::First(Err(RecvError::Truncated)) => {
+                    engine.datagram_too_long();
+                    link.turn_done(false);
+                }
                 Either::Second(()) => {
                     if let Some((to, len)) = engine.poll(app, clock, reply) {
                         send_datagram(&socket, engine, reply, to, len).await;
@@ -302,6 +310,7 @@ where
         // across the sockets' close and listen.
         a.set_nagle_enabled(false);
         b.set_nagle_enabled(false);
+        link.channel_open();
         let (mut served, mut standby) = (&mut a, &mut b);
         let mut listened = false;
         loop {
@@ -348,6 +357,7 @@ where
                         while !rest.is_empty() {
                             let Some((unused, message)) = feed(framer, rest) else {
                                 engine.framing_error();
+                                link.turn_done(false);
                                 break 'connection;
                             };
                             rest = unused;
@@ -357,6 +367,7 @@ where
                             let outcome =
                                 engine.on_message(app, clock, from, message, received, reply);
                             let after = monitor.count();
+                            link.turn_done(matches!(outcome, Outcome::Reply { .. }));
                             if let Outcome::Reply { len, .. } = outcome {
                                 if !send_reply(served, engine, reply, len, write_limit).await {
                                     break 'connection;
@@ -364,6 +375,10 @@ where
                             }
                             exchange(link, engine);
                             monitor.message(engine, message, from, &outcome, (before, after));
+                        }
+                        if !completed {
+                            // Part of a message: nothing to answer yet.
+                            link.turn_done(false);
                         }
                         guard.received(received, completed, framer.pending());
                     }

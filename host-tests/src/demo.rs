@@ -53,12 +53,40 @@ pub struct RunArgs {
     /// as the simulator receives them (counted run only).
     #[command(flatten)]
     pub show: ShowArgs,
+    /// Read the device's /status.json before and after the counted run and print its counts
+    /// beside the simulator's: both sides of the wire, every disagreement named (fails when one
+    /// points inside the firmware).
+    #[arg(long)]
+    pub device_status: bool,
+    /// Inject a fault into the counted run (repeatable; `cargo robot --help` lists them), e.g.
+    /// drop:1 or garbage:2.
+    #[arg(long, value_name = "SPEC", value_parser = crate::robot::fault::Fault::parse)]
+    pub fault: Vec<crate::robot::fault::Fault>,
+    /// Seed of the fault injection.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Load the device's status page in headless Chromium during and after the counted run,
+    /// check the device name, state and answered count it shows against the simulator, and
+    /// write a screenshot here (.png).
+    #[arg(long, value_name = "FILE.png")]
+    pub browser: Option<PathBuf>,
+    /// Run the hostile HTTP catalogue against the device's diagnostics during the counted run;
+    /// fails unless every case gets its answer and every robot message is answered.
+    #[arg(long)]
+    pub http_attack: bool,
+    /// After the run, keep the device running (and its status page served) until Ctrl-C.
+    #[arg(long)]
+    pub serve: bool,
 }
 
 impl RunArgs {
-    /// Checks `--reply` and `--show` against the configured device before
-    /// anything is built (a bad name exits 2 like clap's errors).
+    /// Checks `--reply` and `--show` against the configured device, and
+    /// that a browser is there for `--browser`, before anything is built
+    /// (a bad argument exits 2 like clap's errors).
     pub fn check_show(&self) -> Result<(), String> {
+        if self.browser.is_some() {
+            crate::browser::find().map_err(|e| format!("--browser: {e}"))?;
+        }
         if self.show.show.is_empty()
             && self.show.show_csv.is_none()
             && self.show.show_plot.is_none()
@@ -156,6 +184,32 @@ impl Device for Qemu {
     }
 }
 
+/// A device whose log this computer cannot read (a board running without
+/// a probe, `cargo hil -- --no-probe`): the run relies on the network
+/// alone.
+pub struct Unlogged;
+
+impl Device for Unlogged {
+    fn wait_for(&mut self, _needle: &str, _timeout: Duration) -> Result<(), String> {
+        Ok(())
+    }
+    fn take_new(&self) -> Vec<String> {
+        Vec::new()
+    }
+    fn live_lines(&self) -> Arc<Mutex<Vec<String>>> {
+        Arc::new(Mutex::new(Vec::new()))
+    }
+    fn log(&self) -> Vec<String> {
+        Vec::new()
+    }
+    fn stopped(&mut self) -> Option<String> {
+        None
+    }
+    fn stop(self: Box<Self>) -> Vec<String> {
+        Vec::new()
+    }
+}
+
 /// The configuration a run builds and drives.
 #[derive(Clone, Debug)]
 pub struct Setup {
@@ -225,6 +279,10 @@ pub struct Ran {
     pub stopped: Option<String>,
     /// `--oversize-attack` was sent: every robot message must be answered.
     pub attacked: bool,
+    /// `--http-attack` ran: every robot message must be answered.
+    pub http_attacked: bool,
+    /// What the browser and the HTTP catalogue found wrong.
+    pub http_failures: Vec<String>,
 }
 
 /// Waits for the device to start (its banner, then `ready`, each within
@@ -236,6 +294,7 @@ pub fn drive(
     setup: &Setup,
     args: &RunArgs,
     to: SocketAddr,
+    http: Option<SocketAddr>,
     ready: &[(&str, Duration)],
     out: &mut dyn Write,
 ) -> Result<Ran, Failure> {
@@ -254,6 +313,10 @@ pub fn drive(
     for line in dev.take_new() {
         println!("device: {line}");
     }
+    if let Some(http) = http {
+        println!("== the device's status page: http://{http}/ (for machines: /status.json, for Prometheus: /metrics)");
+    }
+    let web = crate::diagnostics::Web::new(args, http)?;
     let mut opts = RobotOptions::new(setup.gsi.clone(), to);
     opts.device = setup.device_name.clone();
     opts.cycles = args.cycles;
@@ -264,9 +327,15 @@ pub fn drive(
     opts.plot = args.plot.clone();
     opts.progress = std::io::stderr().is_terminal();
     opts.device_log = Some(dev.live_lines());
+    let mut warm = (0, 0);
     if args.warm_up > 0 {
-        opts.first_id = warm_up(&opts, &setup.device, args.warm_up)?;
+        let (first_id, sent, answered) = warm_up(&opts, &setup.device, args.warm_up)?;
+        opts.first_id = first_id;
+        warm = (sent, answered);
     }
+    opts.device_status = web.status_url();
+    opts.faults = args.fault.clone();
+    opts.seed = args.seed;
     if args.oversize_attack {
         oversize_attack(to)?;
     }
@@ -282,9 +351,21 @@ pub fn drive(
                 .join(", ")
         ),
     }
+    let during = web.start();
     let result = run(&opts, &setup.device, out);
+    let mut http_failures = web.finish(
+        during,
+        &setup.device.name,
+        warm,
+        result.as_ref().ok().map(|r| &r.0),
+    );
     // One more counter line from the device.
     std::thread::sleep(Duration::from_millis(1100));
+    if args.serve {
+        if let Err(e) = crate::diagnostics::serve_until_ctrl_c(&mut *dev, http) {
+            http_failures.push(e);
+        }
+    }
     let stopped = dev.stopped();
     let rest = dev.take_new();
     let log = dev.stop();
@@ -299,6 +380,8 @@ pub fn drive(
         log,
         stopped,
         attacked: args.oversize_attack,
+        http_attacked: args.http_attack,
+        http_failures,
     })
 }
 
@@ -323,6 +406,35 @@ pub fn verdict(name: &str, ran: &Ran) -> Result<(), Failure> {
         )
         .into());
     }
+    if !ran.http_failures.is_empty() {
+        return Err(ran.http_failures.join("; ").into());
+    }
+    if ran.http_attacked && ran.summary.lost > 0 {
+        // Lost while the catalogue ran: in the firmware, or before it (the
+        // emulated NIC in real time on this host: then only as late).
+        let split = ran
+            .log
+            .iter()
+            .rev()
+            .find_map(|l| crate::counters::DeviceCounters::parse(l))
+            .map(|c| crate::counters::LossSplit::of(ran.summary.sent, ran.summary.answered, &c));
+        let before_firmware = split.is_some_and(|s| s.lost() == s.nic);
+        return Err(Failure {
+            reason: format!(
+                "{} of {} robot messages not answered during the HTTP catalogue ({})",
+                ran.summary.lost,
+                ran.summary.sent,
+                match split {
+                    Some(s) => format!(
+                        "NIC {} reassembly {} engine {} way back {}",
+                        s.nic, s.reassembly, s.engine, s.way_back
+                    ),
+                    None => "the device logged no counters".into(),
+                }
+            ),
+            late_only: before_firmware,
+        });
+    }
     if ran.attacked {
         if let Some(c) = ran
             .log
@@ -343,6 +455,13 @@ pub fn verdict(name: &str, ran: &Ran) -> Result<(), Failure> {
             )
             .into());
         }
+    }
+    if let Some(c) = ran.summary.device_status.as_ref().filter(|c| c.in_firmware) {
+        return Err(format!(
+            "both sides of the wire disagree inside the firmware: {}",
+            c.disagreements.join("; ")
+        )
+        .into());
     }
     match ran.summary.failure() {
         None => {
@@ -379,9 +498,14 @@ fn oversize_attack(to: SocketAddr) -> Result<(), String> {
 }
 
 /// Sends `cycles` robot cycles with `opts` and prints one line of figures;
-/// returns the first Id of the counted run. Fails on no reply at all, or on
-/// a wrong or malformed reply, never on timing.
-fn warm_up(opts: &RobotOptions, device: &gsi_config::Device, cycles: u64) -> Result<u32, String> {
+/// returns the first Id of the counted run and what the warm-up sent and
+/// had answered. Fails on no reply at all, or on a wrong or malformed
+/// reply, never on timing.
+fn warm_up(
+    opts: &RobotOptions,
+    device: &gsi_config::Device,
+    cycles: u64,
+) -> Result<(u32, u64, u64), String> {
     let mut w = opts.clone();
     w.cycles = cycles;
     w.plot = None;
@@ -390,6 +514,7 @@ fn warm_up(opts: &RobotOptions, device: &gsi_config::Device, cycles: u64) -> Res
     w.show_plot = None;
     w.progress = false;
     w.device_log = None;
+    w.faults = Vec::new();
     // Its state transitions are the counted run's to show.
     let mut quiet = Vec::new();
     let (s, _) = run(&w, device, &mut quiet)?;
@@ -408,5 +533,5 @@ fn warm_up(opts: &RobotOptions, device: &gsi_config::Device, cycles: u64) -> Res
         return Err(format!("warm-up: {why}"));
     }
     let sent = u32::try_from(s.sent).map_err(|_| "warm-up: too many messages")?;
-    Ok(w.first_id.wrapping_add(sent))
+    Ok((w.first_id.wrapping_add(sent), s.sent, s.answered))
 }

@@ -135,6 +135,15 @@ pub fn target_dir() -> PathBuf {
     }
 }
 
+/// A free TCP port on 127.0.0.1 for QEMU to forward the diagnostics to.
+pub fn free_tcp_port() -> Result<u16, String> {
+    let tcp =
+        std::net::TcpListener::bind("127.0.0.1:0").map_err(|e| format!("no free port: {e}"))?;
+    tcp.local_addr()
+        .map(|a| a.port())
+        .map_err(|e| e.to_string())
+}
+
 /// A free port on 127.0.0.1 for QEMU to forward (released just before
 /// QEMU binds it).
 pub fn free_port() -> Result<u16, String> {
@@ -161,7 +170,14 @@ pub struct Boot {
     /// `-icount shift=N`: the virtual clock advances 2^N ns per
     /// instruction (deterministic counts); `None` runs in real time.
     pub icount_shift: Option<u8>,
+    /// 127.0.0.1 port forwarded to the device's diagnostics (TCP port
+    /// [`HTTP_PORT`]); `None`: not forwarded.
+    pub http_port: Option<u16>,
 }
+
+/// The diagnostics service's port on the device (the firmware's default
+/// `RRI_HTTP_PORT`).
+pub const HTTP_PORT: u16 = 80;
 
 /// The device's IPv4 address and the user-mode network around it: QEMU's
 /// slirp must own the device's /24 for the forward to reach it.
@@ -180,8 +196,12 @@ fn slirp_network(boot: &Boot) -> Result<String, String> {
         Protocol::Tcp => "tcp",
         Protocol::Udp | Protocol::HpUdp => "udp",
     };
+    let http = match boot.http_port {
+        Some(hp) => format!(",hostfwd=tcp:127.0.0.1:{hp}-{a}.{b}.{c}.{d}:{HTTP_PORT}"),
+        None => String::new(),
+    };
     Ok(format!(
-        "user,model=lan9118,net={a}.{b}.{c}.0/24,host={a}.{b}.{c}.{host},restrict=off,hostfwd={proto}:127.0.0.1:{hp}-{a}.{b}.{c}.{d}:{port}",
+        "user,model=lan9118,net={a}.{b}.{c}.0/24,host={a}.{b}.{c}.{host},restrict=off,hostfwd={proto}:127.0.0.1:{hp}-{a}.{b}.{c}.{d}:{port}{http}",
         hp = boot.host_port,
         port = boot.device.channel.port
     ))

@@ -140,3 +140,6 @@ impl LastBad {
         critical_section::with(|cs| self.cell.borrow(cs).get())
     }
 }
+
+#[cfg(test)]
+mod tests;

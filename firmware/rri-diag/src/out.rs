@@ -11,9 +11,9 @@
 //! one window.
 //!
 //! Every string that came from a file (the GSI folder) or from the network
-//! (a bad robot message) goes through the escaping writers here
-//! (`html`, `json`, `label` and their `_bytes`
-//! variants for bytes that may not be UTF-8); nothing else writes them.
+//! (a bad robot message) goes through the escaping writers here (`json`,
+//! `json_bytes` for bytes that may not be UTF-8, `label`); nothing else
+//! writes them.
 
 /// A sink for a response: it never fails and never allocates; what does
 /// not fit is the sink's business (counted, skipped or cut).
@@ -102,44 +102,6 @@ impl dyn Out + '_ {
         }
     }
 
-    /// Appends `v` as eight hexadecimal digits.
-    #[inline(never)]
-    pub fn hex32(&mut self, v: u32) {
-        for b in v.to_be_bytes() {
-            self.bytes(&hex(b));
-        }
-    }
-
-    /// Appends text for HTML content or a quoted attribute value:
-    /// `& < > " '` as character references, everything else as it is.
-    #[inline(never)]
-    pub fn html(&mut self, text: &str) {
-        escape(self, text.as_bytes(), |b| match b {
-            b'&' => Some(Piece::Text("&amp;")),
-            b'<' => Some(Piece::Text("&lt;")),
-            b'>' => Some(Piece::Text("&gt;")),
-            b'"' => Some(Piece::Text("&quot;")),
-            b'\'' => Some(Piece::Text("&#39;")),
-            _ => None,
-        });
-    }
-
-    /// Appends bytes that may be anything (a bad robot message) for HTML:
-    /// printable ASCII as `html` does, every other byte as `\xNN`
-    /// (tab, CR and LF as `\t`, `\r`, `\n`), so the reader sees exactly
-    /// what arrived and no byte can open markup.
-    #[inline(never)]
-    pub fn html_bytes(&mut self, bytes: &[u8]) {
-        escape(self, bytes, |b| match b {
-            b'&' => Some(Piece::Text("&amp;")),
-            b'<' => Some(Piece::Text("&lt;")),
-            b'>' => Some(Piece::Text("&gt;")),
-            b'"' => Some(Piece::Text("&quot;")),
-            b'\'' => Some(Piece::Text("&#39;")),
-            other => byte_escape(other),
-        });
-    }
-
     /// Appends text inside a JSON string: `"` and `\` escaped, control
     /// characters as `\u00NN`; UTF-8 as it is.
     #[inline(never)]
@@ -175,8 +137,6 @@ impl dyn Out + '_ {
 /// What an escaping writer puts in place of one byte.
 enum Piece {
     Text(&'static str),
-    /// `\xNN`.
-    Byte(u8),
     /// `\u00NN`.
     Unicode(u8),
 }
@@ -190,17 +150,6 @@ fn json_escape(b: u8) -> Option<Piece> {
         b'\t' => Some(Piece::Text("\\t")),
         0..=0x1f | 0x7f => Some(Piece::Unicode(b)),
         _ => None,
-    }
-}
-
-fn byte_escape(b: u8) -> Option<Piece> {
-    match b {
-        b'\t' => Some(Piece::Text("\\t")),
-        b'\r' => Some(Piece::Text("\\r")),
-        b'\n' => Some(Piece::Text("\\n")),
-        b'\\' => Some(Piece::Text("\\\\")),
-        0x20..=0x7e => None,
-        _ => Some(Piece::Byte(b)),
     }
 }
 
@@ -219,10 +168,6 @@ fn escape(out: &mut dyn Out, bytes: &[u8], rule: impl Fn(u8) -> Option<Piece>) {
         out.bytes(bytes.get(start..i).unwrap_or(&[]));
         match piece {
             Piece::Text(t) => out.str(t),
-            Piece::Byte(b) => {
-                out.str("\\x");
-                out.bytes(&hex(b));
-            }
             Piece::Unicode(b) => {
                 out.str("\\u00");
                 out.bytes(&hex(b));
@@ -334,23 +279,6 @@ mod tests {
     }
 
     #[test]
-    fn html_escapes_every_markup_character() {
-        assert_eq!(
-            text(|o| o.html("<a href=\"x\">'&'</a>")),
-            "&lt;a href=&quot;x&quot;&gt;&#39;&amp;&#39;&lt;/a&gt;"
-        );
-        assert_eq!(text(|o| o.html("Grüße")), "Grüße");
-    }
-
-    #[test]
-    fn arbitrary_bytes_are_shown_byte_by_byte_and_never_open_markup() {
-        assert_eq!(
-            text(|o| o.html_bytes(b"<R Id=\"1\">\r\n\x00\xff\\</R>")),
-            "&lt;R Id=&quot;1&quot;&gt;\\r\\n\\x00\\xff\\\\&lt;/R&gt;"
-        );
-    }
-
-    #[test]
     fn json_strings_stay_valid_whatever_the_bytes() {
         assert_eq!(
             text(|o| o.json("a\"b\\c\nd\u{1}")),
@@ -371,7 +299,7 @@ mod tests {
             o.str("HTTP/1.1 200 OK\r\n");
             for i in 0..50u64 {
                 o.u64(i * 7919);
-                o.html("<&>");
+                o.json("<&>\"");
             }
         };
         let mut whole = All::default();

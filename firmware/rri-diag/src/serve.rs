@@ -4,7 +4,7 @@
 //! - [`connection`] runs on the urgent executor beside the cycle, because
 //!   embassy-net's stack may only be used where it runs (it is not
 //!   `Send`). It accepts a connection on the port and moves bytes, at
-//!   most [`CHUNK`] per turn: request bytes into the slot's inbound pipe,
+//!   most [`PIECE`] per turn: request bytes into the slot's inbound pipe,
 //!   response bytes from its outbound pipe into the socket. Nothing else:
 //!   a turn of it costs the cycle a copy of a few hundred bytes.
 //! - [`service`] runs on the background executor, below the cycle: it
@@ -22,7 +22,9 @@
 //! Bounds, so that no client can hold a slot or the renderer for long:
 //! the request must arrive within [`REQUEST_TIMEOUT`] of the connection
 //! (408 otherwise), the response must be taken within
-//! [`RESPONSE_TIMEOUT`] (the connection is aborted otherwise), one
+//! [`RESPONSE_TIMEOUT`] and without a pause of [`STALL_TIMEOUT`] (the
+//! connection is aborted otherwise: a response holds the one renderer
+//! while its client reads), one
 //! request per connection, and the closing handshake gets
 //! [`CLOSE_TIMEOUT`]. With every slot busy, smoltcp (which has no listen
 //! backlog) answers a new connection with a reset: the client is refused
@@ -46,9 +48,11 @@ pub const SLOTS: usize = 2;
 pub const SOCKET_RX: usize = 256;
 /// Each slot's socket send buffer.
 pub const SOCKET_TX: usize = 1024;
-/// Bytes moved per turn of a connection half (and the outbound pipe's
-/// size).
+/// The outbound pipe's size: response bytes on their way to the socket.
 pub const CHUNK: usize = 256;
+/// Bytes copied through a pipe at a time: a pipe copies under a critical
+/// section, which holds off every interrupt, the cycle's included.
+pub const PIECE: usize = 64;
 /// The rendering window: bytes of a response rendered per pass.
 pub const WINDOW: usize = 1024;
 /// The whole request head must arrive within this (408 otherwise).
@@ -57,6 +61,10 @@ pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(2);
 pub const RESPONSE_TIMEOUT: Duration = Duration::from_secs(5);
 /// The closing handshake may take this long (abort otherwise).
 pub const CLOSE_TIMEOUT: Duration = Duration::from_secs(1);
+/// A response holds the one renderer while its bytes wait for the client;
+/// a client that takes none for this long loses its connection, so that
+/// it cannot keep the other slots' responses waiting.
+pub const STALL_TIMEOUT: Duration = Duration::from_secs(1);
 
 type Cs = CriticalSectionRawMutex;
 
@@ -72,6 +80,9 @@ pub struct Slot {
     gone: Signal<Cs, ()>,
     /// The service has its verdict: request bytes are no longer needed.
     heard: core::sync::atomic::AtomicBool,
+    /// The service gave the response up (the client stalled): the network
+    /// half aborts the connection instead of closing it.
+    abandoned: core::sync::atomic::AtomicBool,
 }
 
 impl Default for Slot {
@@ -90,6 +101,7 @@ impl Slot {
             finished: Signal::new(),
             gone: Signal::new(),
             heard: core::sync::atomic::AtomicBool::new(false),
+            abandoned: core::sync::atomic::AtomicBool::new(false),
         }
     }
 }
@@ -97,7 +109,7 @@ impl Slot {
 /// The network half's own buffers: a chunk on its way to the socket, and
 /// request bytes on their way to the inbound pipe.
 pub struct SocketHalf {
-    chunk: [u8; CHUNK],
+    chunk: [u8; PIECE],
     inbound: Inbound,
 }
 
@@ -111,7 +123,7 @@ impl SocketHalf {
     /// Empty.
     pub const fn new() -> Self {
         SocketHalf {
-            chunk: [0; CHUNK],
+            chunk: [0; PIECE],
             inbound: Inbound {
                 bytes: [0; 64],
                 len: 0,
@@ -212,6 +224,8 @@ pub async fn connection(
         slot.gone.reset();
         slot.heard
             .store(false, core::sync::atomic::Ordering::Relaxed);
+        slot.abandoned
+            .store(false, core::sync::atomic::Ordering::Relaxed);
         slot.opened.signal(());
         half.inbound.len = 0;
         half.inbound.eof = false;
@@ -272,7 +286,7 @@ async fn serve_connection(socket: &mut TcpSocket<'_>, slot: &Slot, half: &mut So
     loop {
         if service_done && slot.outbound.is_empty() {
             return Ended {
-                served: true,
+                served: !slot.abandoned.load(core::sync::atomic::Ordering::Relaxed),
                 service_done,
             };
         }
@@ -293,8 +307,14 @@ async fn serve_connection(socket: &mut TcpSocket<'_>, slot: &Slot, half: &mut So
             Either::Second(()) => false,
             Either::First(Either3::First(alive)) => alive,
             Either::First(Either3::Second(n)) => {
+                // Bounded like every other step: a client that takes no
+                // bytes for STALL_TIMEOUT loses the connection.
                 let bytes = chunk.get(..n).unwrap_or(&[]);
-                write_all(socket, bytes).await
+                let limit = deadline.min(Instant::now() + STALL_TIMEOUT);
+                matches!(
+                    select(write_all(socket, bytes), Timer::at(limit)).await,
+                    Either::First(true)
+                )
             }
             Either::First(Either3::Third(())) => {
                 service_done = true;
@@ -432,7 +452,14 @@ async fn respond(
         let (kept, total) = (w.kept().len(), w.total());
         let mut bytes = window.get(..kept).unwrap_or(&[]);
         while !bytes.is_empty() {
-            let n = slot.outbound.write(bytes).await;
+            // A pipe copies under a critical section: in small pieces, so
+            // that the cycle's interrupt never waits long behind one.
+            let piece = bytes.get(..PIECE).unwrap_or(bytes);
+            let Ok(n) = with_timeout(STALL_TIMEOUT, slot.outbound.write(piece)).await else {
+                slot.abandoned
+                    .store(true, core::sync::atomic::Ordering::Relaxed);
+                return;
+            };
             bytes = bytes.get(n..).unwrap_or(&[]);
         }
         sent += kept;

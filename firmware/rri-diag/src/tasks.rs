@@ -32,6 +32,7 @@ use embassy_executor::SpawnToken;
 use embassy_net::Stack;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::mutex::Mutex;
+use rri_firmware::fragments::Link;
 use static_cell::ConstStaticCell;
 
 type Renderers = Mutex<CriticalSectionRawMutex, Renderer>;
@@ -137,6 +138,7 @@ impl Urgent {
         self,
         stack: Stack<'static>,
         port: u16,
+        link: &'static Link,
     ) -> impl Iterator<Item = SpawnToken<impl Sized>> {
         let buffers = SOCKETS.try_take().into_iter().flat_map(|b| b.iter_mut());
         self.slots
@@ -144,7 +146,7 @@ impl Urgent {
             .zip(self.halves.iter_mut())
             .zip(buffers)
             .filter_map(move |((slot, half), (rx, tx))| {
-                socket(stack, port, slot, half, rx, tx).ok()
+                socket(stack, port, link, slot, half, rx, tx).ok()
             })
     }
 }
@@ -153,11 +155,17 @@ impl Urgent {
 async fn socket(
     stack: Stack<'static>,
     port: u16,
+    link: &'static Link,
     slot: &'static Slot,
     half: &'static mut SocketHalf,
     rx: &'static mut [u8; SOCKET_RX],
     tx: &'static mut [u8; SOCKET_TX],
 ) -> ! {
+    // The cycle's socket first: the runner serves sockets in the order
+    // they were made, and a reply must not wait behind a response.
+    while !link.is_channel_open() {
+        embassy_time::Timer::after_millis(10).await;
+    }
     serve::connection(stack, port, slot, half, &STATS, rx, tx).await
 }
 

@@ -261,7 +261,7 @@ async fn network(
     #[cfg(rri_http)]
     for token in http
         .into_iter()
-        .flat_map(|h| h.sockets(stack, rri_firmware::network::HTTP_PORT))
+        .flat_map(|h| h.sockets(stack, rri_firmware::network::HTTP_PORT, &LINK))
     {
         spawner.spawn(token);
     }
@@ -357,6 +357,7 @@ async fn cycle(stack: Stack<'static>, _reader: SampleReader<'static, Samples>) -
     if socket.bind(layout::CHANNEL_PORT).is_err() {
         defmt::panic!("the floor cannot bind its port");
     }
+    LINK.channel_open();
     // CONNECTED for the host tools, and a heartbeat for the watchdog.
     let mut turn = Snapshot {
         state: SensorState::Connected,
@@ -370,6 +371,7 @@ async fn cycle(stack: Stack<'static>, _reader: SampleReader<'static, Samples>) -
             continue;
         };
         let before = board::cycle_counter();
+        LINK.turn_done(true);
         let sent = socket
             .send_to(reply.get(..fixed.len).unwrap_or(&[]), meta.endpoint)
             .await;

@@ -7,6 +7,13 @@
 //! the stack as an empty frame, which smoltcp skips. Sending is the
 //! driver's own.
 //!
+//! It keeps other traffic from between a robot message and its reply
+//! ([`super::Hold`]): while the cycle works on a message nothing is sent
+//! or taken in (smoltcp would otherwise send the diagnostics' segments,
+//! or anyone's, right after taking the message in and in front of the
+//! reply), and once the reply is queued nothing is taken in until it has
+//! left.
+//!
 //! It also times every reply at the driver (the diagnostics' reply
 //! latency, [`super::Link::latency`]): from the moment it hands the stack
 //! a robot message's last frame (a datagram for the channel port, or a
@@ -137,9 +144,16 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
             channel,
             budget,
         } = self;
+        // The cycle works on a robot message, or its reply waits to leave:
+        // nothing comes in meanwhile (`Link::may_receive`; the cycle wakes
+        // us, the egress that sends the reply ends the wait).
+        let now = now_us();
+        if !link.may_receive(now, cx.waker()) {
+            return None;
+        }
         // Stale sets go at every poll, not only when the next fragment
         // comes, so the counters show them.
-        reassembler.expire(now_us());
+        reassembler.expire(now);
         if reassembler.take_changed() {
             link.publish(reassembler.stats());
         }
@@ -176,6 +190,11 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
             channel,
             ..
         } = self;
+        // The cycle works on a robot message: nothing leaves in front of
+        // its reply (`Link::may_transmit`; the cycle wakes us).
+        if !link.may_transmit(now_us(), cx.waker()) {
+            return None;
+        }
         Some(GuardTx {
             inner: inner.transmit(cx)?,
             link,

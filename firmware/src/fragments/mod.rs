@@ -41,9 +41,7 @@ pub use reassembly::{Reassembler, Verdict};
 #[cfg(feature = "net")]
 pub mod guard;
 
-use crate::engine::{Endpoint, Histogram, Pinned};
-use core::cell::{Cell, RefCell};
-use critical_section::Mutex;
+use crate::engine::{Endpoint, Pinned};
 
 /// An incomplete set is given up this long after its first fragment
 /// arrived (µs): two 4 ms robot cycles.
@@ -284,78 +282,8 @@ impl FragmentStats {
     }
 }
 
-/// What the fragment guard (in the network runner) and the cycle share:
-/// the cycle tells who the controller is after every message, the guard
-/// publishes its counters after every frame that changed them. Both sides
-/// hold it a few instructions under a critical section.
-pub struct Link {
-    controller: Mutex<Cell<Controller>>,
-    stats: Mutex<Cell<FragmentStats>>,
-    /// The reply latency at the driver (the guard's clock): when the
-    /// last robot message's last frame came in, and every reply's time.
-    wire: Mutex<RefCell<(Option<u64>, Histogram)>>,
-}
-
-impl Default for Link {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl Link {
-    /// Anyone may be the controller, every counter at zero (`const`, for a
-    /// `static`).
-    pub const fn new() -> Self {
-        Link {
-            controller: Mutex::new(Cell::new(Controller::ANYONE)),
-            stats: Mutex::new(Cell::new(FragmentStats::ZERO)),
-            wire: Mutex::new(RefCell::new((None, Histogram::EMPTY))),
-        }
-    }
-
-    /// The guard: a robot message's last frame was handed to the stack
-    /// at `at_us`.
-    pub fn message_in(&self, at_us: u64) {
-        critical_section::with(|cs| self.wire.borrow_ref_mut(cs).0 = Some(at_us));
-    }
-
-    /// The guard: the driver took a reply's first frame at `at_us`; the
-    /// time since the message came in is recorded (a send with no message
-    /// waiting, a periodic one, is not).
-    pub fn reply_out(&self, at_us: u64) {
-        critical_section::with(|cs| {
-            let mut wire = self.wire.borrow_ref_mut(cs);
-            if let Some(at) = wire.0.take() {
-                wire.1.record_at(at_us.saturating_sub(at), at_us);
-            }
-        });
-    }
-
-    /// The reply latency at the driver: every reply since the start.
-    pub fn latency(&self) -> Histogram {
-        critical_section::with(|cs| self.wire.borrow_ref(cs).1)
-    }
-
-    /// Who the controller is now.
-    pub fn controller(&self) -> Controller {
-        critical_section::with(|cs| self.controller.borrow(cs).get())
-    }
-
-    /// The cycle, after each message: who the controller is now.
-    pub fn set_controller(&self, controller: Controller) {
-        critical_section::with(|cs| self.controller.borrow(cs).set(controller));
-    }
-
-    /// The guard's counters as last published.
-    pub fn stats(&self) -> FragmentStats {
-        critical_section::with(|cs| self.stats.borrow(cs).get())
-    }
-
-    /// The guard: its counters changed.
-    pub fn publish(&self, stats: FragmentStats) {
-        critical_section::with(|cs| self.stats.borrow(cs).set(stats));
-    }
-}
+mod link;
+pub use link::{Hold, Link, HOLD_MAX_US};
 
 #[cfg(test)]
 mod tests;

@@ -255,6 +255,10 @@ pub struct Comparison {
     pub rows: Vec<Row>,
     /// Every disagreement, with the side of the wire it points at.
     pub disagreements: Vec<String>,
+    /// One of them points inside the device (a message taken and not
+    /// answered, more rejected than was sent to be rejected): the
+    /// network explains the others.
+    pub in_firmware: bool,
 }
 
 /// The simulator's `s` beside the device's counters from `before` to
@@ -300,6 +304,7 @@ pub fn compare(s: &Summary, before: &DeviceCounts, after: &DeviceCounts) -> Comp
         ),
     ];
     let mut why = Vec::new();
+    let mut in_firmware = false;
     if robot_in < sent {
         let missing = sent - robot_in;
         let mut text = format!(
@@ -325,6 +330,7 @@ pub fn compare(s: &Summary, before: &DeviceCounts, after: &DeviceCounts) -> Comp
         ));
     }
     if robot_in > d.answered {
+        in_firmware = true;
         why.push(format!(
             "the device took {robot_in} robot messages and answered {}: {} unanswered inside the device (send errors: {})",
             d.answered,
@@ -333,6 +339,7 @@ pub fn compare(s: &Summary, before: &DeviceCounts, after: &DeviceCounts) -> Comp
         ));
     }
     if d.dropped_decode > i.garbage + i.oversize {
+        in_firmware = true;
         why.push(format!(
             "the device rejected {} datagrams, the simulator sent {} it should reject: see the device's last bad message",
             d.dropped_decode,
@@ -370,6 +377,7 @@ pub fn compare(s: &Summary, before: &DeviceCounts, after: &DeviceCounts) -> Comp
         device: d,
         rows,
         disagreements: why,
+        in_firmware,
     }
 }
 

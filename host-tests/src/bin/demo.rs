@@ -54,6 +54,7 @@ fn run_demo(args: &RunArgs) -> Result<(), Failure> {
         device: setup.device.clone(),
         host_port,
         icount_shift: None,
+        http_port: Some(qemu::free_tcp_port()?),
     };
     println!(
         "== booting {} on {} (device {} port {} forwarded from 127.0.0.1:{host_port})",
@@ -68,6 +69,7 @@ fn run_demo(args: &RunArgs) -> Result<(), Failure> {
         &setup,
         args,
         ([127, 0, 0, 1], host_port).into(),
+        boot.http_port.map(|p| ([127, 0, 0, 1], p).into()),
         &demo::qemu_ready(&setup),
         &mut out,
     )?;

@@ -191,6 +191,7 @@ fn inside(args: &Args) -> Result<u8, String> {
         device: device.clone(),
         host_port: 0,
         icount_shift: None,
+        http_port: None,
     };
     let nic = format!("tap,model=lan9118,ifname={TAP},script=no,downscript=no");
     let mut board = Qemu::boot_on(&boot, &nic)?;

@@ -63,6 +63,11 @@ struct Args {
     /// Check the HardFault handler (an image that faults on purpose) instead of driving the device.
     #[arg(long)]
     fault: bool,
+    /// No probe: the board already runs this firmware; drive it over Ethernet alone and take the
+    /// device's own latency and stack from its /status.json (on qemu: the same, on the QEMU
+    /// board, its log unread).
+    #[arg(long, conflicts_with_all = ["probe", "elf", "fault"])]
+    no_probe: bool,
     #[command(flatten)]
     run: RunArgs,
 }
@@ -73,7 +78,7 @@ fn main() -> ExitCode {
         eprintln!("error: unknown board {}", args.board);
         return ExitCode::from(2);
     };
-    if board.chip.is_some() {
+    if board.chip.is_some() && !args.no_probe {
         if let Err(missing) = probe::check(args.probe.as_deref()) {
             eprintln!("error: {}", missing.line());
             return ExitCode::from(NOTHING_TO_RUN_ON);
@@ -94,12 +99,15 @@ fn hil_run(board: &HilBoard, args: &Args) -> Result<(), Failure> {
         qemu::ensure_qemu(&mut out)?;
     }
     let setup = Setup::new(args.run.tcp)?;
+    if args.no_probe && board.chip.is_some() {
+        return over_ethernet(args, &setup);
+    }
     let elf = match &args.elf {
         Some(elf) => elf.clone(),
         None => build(board, args, &setup)?,
     };
     hil::check_image(board, &elf)?;
-    let (dev, to) = start(board, args, &setup, elf)?;
+    let (dev, to, http) = start(board, args, &setup, elf)?;
     if args.fault {
         return fault(dev, board);
     }
@@ -129,7 +137,15 @@ fn hil_run(board: &HilBoard, args: &Args) -> Result<(), Failure> {
             "the QEMU board"
         }
     );
-    let ran = demo::drive(dev, &setup, &args.run, to, &ready, &mut out)?;
+    let ran = demo::drive(dev, &setup, &args.run, to, http, &ready, &mut out)?;
+    if args.no_probe {
+        // The QEMU board with its log unread: as a real board without a probe.
+        let figures = http
+            .ok_or("no diagnostics to read".to_string())
+            .and_then(host_tests::diagnostics::figures_over_ethernet);
+        demo::verdict("hil", &ran)?;
+        return figures.map_err(Failure::from);
+    }
     let figures = DeviceFigures::of(&ran.log);
     let csv = qemu::target_dir()
         .join("hil")
@@ -172,14 +188,41 @@ fn build(board: &HilBoard, args: &Args, setup: &Setup) -> Result<PathBuf, String
     )
 }
 
-/// Starts the device: `probe-rs run` on a NUCLEO, QEMU for `qemu`; and
-/// where the simulator reaches it.
+/// `--no-probe` on a NUCLEO: the board already runs; drive it at its
+/// address, then read its own figures from `/status.json`.
+fn over_ethernet(args: &Args, setup: &Setup) -> Result<(), Failure> {
+    let to = match &args.to {
+        None => setup.channel()?,
+        Some(t) => parse_to(t, setup.device.channel.port)?,
+    };
+    let http = SocketAddr::new(to.ip(), qemu::HTTP_PORT);
+    println!("== no probe: driving the board at {to}, its figures from http://{http}/status.json");
+    let ran = demo::drive(
+        Box::new(host_tests::demo::Unlogged),
+        setup,
+        &args.run,
+        to,
+        Some(http),
+        &[],
+        &mut std::io::stdout(),
+    )?;
+    let figures = host_tests::diagnostics::figures_over_ethernet(http);
+    demo::verdict("hil", &ran)?;
+    figures.map_err(Failure::from)
+}
+
+/// A started device, where the simulator reaches it, and where its
+/// diagnostics answer.
+type Started = (Box<dyn Device>, SocketAddr, Option<SocketAddr>);
+
+/// Starts the device: `probe-rs run` on a NUCLEO, QEMU for `qemu`; where
+/// the simulator reaches it, and its diagnostics.
 fn start(
     board: &HilBoard,
     args: &Args,
     setup: &Setup,
     elf: PathBuf,
-) -> Result<(Box<dyn Device>, SocketAddr), String> {
+) -> Result<Started, String> {
     match board.chip {
         Some(chip) => {
             let to = match &args.to {
@@ -191,7 +234,8 @@ fn start(
                 elf.display()
             );
             let cmd = probe::command(chip, &elf, args.probe.as_deref(), !args.fault);
-            Ok((Box::new(ProbeRun::start(cmd)?), to))
+            let http = SocketAddr::new(to.ip(), qemu::HTTP_PORT);
+            Ok((Box::new(ProbeRun::start(cmd)?), to, Some(http)))
         }
         None => {
             let host_port = qemu::free_port()?;
@@ -200,6 +244,7 @@ fn start(
                 device: setup.device.clone(),
                 host_port,
                 icount_shift: None,
+                http_port: Some(qemu::free_tcp_port()?),
             };
             println!(
                 "== booting {} on {} (device {} port {} forwarded from 127.0.0.1:{host_port})",
@@ -208,9 +253,11 @@ fn start(
                 setup.device.network.address,
                 setup.device.channel.port
             );
+            let http = boot.http_port.map(|p| ([127, 0, 0, 1], p).into());
             Ok((
                 Box::new(Qemu::boot(&boot)?),
                 ([127, 0, 0, 1], host_port).into(),
+                http,
             ))
         }
     }

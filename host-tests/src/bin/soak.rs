@@ -83,6 +83,7 @@ fn soak(args: &Args) -> Result<bool, String> {
         device: device.clone(),
         host_port,
         icount_shift: None,
+        http_port: None,
     })?;
     board.wait_for("state CONNECTED", Duration::from_secs(30))?;
     println!(

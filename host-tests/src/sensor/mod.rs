@@ -271,6 +271,8 @@ impl<R: RobotSet, D: DeviceSet, A: Application<R, D>> Node<'_, R, D, A> {
 /// (for tests): [`Background::stop`] ends it and returns its report.
 pub struct Background {
     pub addr: SocketAddr,
+    /// Where its diagnostics answer ([`Background::start_diagnosed`]).
+    pub http: Option<SocketAddr>,
     stop: Arc<AtomicBool>,
     thread: JoinHandle<io::Result<SensorReport>>,
 }
@@ -281,6 +283,17 @@ impl Background {
     /// waits until it listens.
     pub fn start(tcp: bool, config: Config) -> io::Result<Background> {
         Self::start_sensor::<Active>(tcp, config, Source::Simulated)
+    }
+
+    /// [`Background::start`] with its diagnostics served on an ephemeral
+    /// port of 127.0.0.1 ([`Background::http`]).
+    pub fn start_diagnosed(tcp: bool, config: Config) -> io::Result<Background> {
+        Self::start_opts::<
+            Active,
+            layout::RobotProperties,
+            layout::DeviceProperties,
+            { layout::MAX_RECEIVE_LEN },
+        >(tcp, config, layout::DEVICE_NAME, Source::Simulated, true)
     }
 
     /// Starts sensor `S` (any, for the built layout) fed by `source`: how
@@ -330,8 +343,24 @@ impl Background {
         R: RobotSet + Send + 'static,
         D: DeviceSet + Send + 'static,
     {
+        Self::start_opts::<S, R, D, RX>(tcp, config, device_name, source, false)
+    }
+
+    fn start_opts<S, R, D, const RX: usize>(
+        tcp: bool,
+        config: Config,
+        device_name: &'static str,
+        source: Source,
+        http: bool,
+    ) -> io::Result<Background>
+    where
+        S: Sensor<R, D> + 'static,
+        R: RobotSet + Send + 'static,
+        D: DeviceSet + Send + 'static,
+    {
         let stop = Arc::new(AtomicBool::new(false));
         let (tx, rx) = mpsc::channel();
+        let (http_tx, http_rx) = mpsc::channel();
         let opts = SensorOptions {
             listen: SocketAddr::from(([127, 0, 0, 1], 0)),
             tcp,
@@ -339,17 +368,31 @@ impl Background {
             stats_every: None,
             device_name,
             source,
-            http: None,
-            http_ready: None,
+            http: http.then(|| SocketAddr::from(([127, 0, 0, 1], 0))),
+            http_ready: Some(http_tx),
         };
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
             run_with::<S, R, D, RX>(&opts, &flag, Some(tx), &mut std::io::sink())
         });
+        let http = if http {
+            Some(
+                http_rx
+                    .recv_timeout(Duration::from_secs(5))
+                    .map_err(|_| io::Error::other("the diagnostics did not start listening"))?,
+            )
+        } else {
+            None
+        };
         let addr = rx
             .recv_timeout(Duration::from_secs(5))
             .map_err(|_| io::Error::other("the sensor did not start listening"))?;
-        Ok(Background { addr, stop, thread })
+        Ok(Background {
+            addr,
+            http,
+            stop,
+            thread,
+        })
     }
 
     /// Stops it; its report, or the error that ended it early.

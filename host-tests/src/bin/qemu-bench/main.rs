@@ -27,6 +27,7 @@
 
 mod report;
 mod run;
+mod scrape;
 
 use clap::Parser;
 use host_tests::counters::{DeviceCounters, LossSplit};
@@ -95,6 +96,9 @@ struct Measured {
     sim_records: Vec<Record>,
     realistic: Vec<(Input, Vec<Record>)>,
     hostile: Vec<(Input, Vec<Record>)>,
+    /// The same again while the diagnostics were scraped, and what the
+    /// scraper got.
+    scraped: Option<(Phase, String)>,
     /// Stack use: (start-up, running, budget) bytes.
     stack: (u64, u64, u64),
     log: Vec<String>,
@@ -128,6 +132,7 @@ fn bench(args: &Args) -> Result<bool, String> {
         device: device.clone(),
         host_port: qemu::free_port()?,
         icount_shift: Some(SHIFT),
+        http_port: Some(qemu::free_tcp_port()?),
     };
     let measured = counted(args, &boot, &gsi, &device)?;
     let floor = floor(args, &boot, &gsi)?;
@@ -212,7 +217,55 @@ fn counted(
         .filter_map(|l| qb::parse_codec(l))
         .collect();
 
-    // 2. The simulator, every message measured.
+    // 2.–3. The simulator, every message measured, then the corpora; then
+    // all of it again while a client scrapes the diagnostics (the scrape
+    // run: the service's cost to the cycle, measured).
+    let quiet = phase(args, &board, to, gsi, device, 0)?;
+    let http = boot
+        .http_port
+        .map(|p| SocketAddr::from(([127, 0, 0, 1], p)))
+        .ok_or("the bench boot forwards no diagnostics port")?;
+    println!("== the scrape run: the same again while a client reads /metrics 10 times a second, / once a second, and opens 8 connections at once every second");
+    let scraper = scrape::Scraper::start(http);
+    let scraped = phase(args, &board, to, gsi, device, 1_000_000);
+    let got = scraper.stop();
+    let scraped = scraped?;
+    // The stack's high-water mark reaches the log within a second.
+    let stack = wait_for_stack(&board)?;
+    let log = finish(board, "during the bench")?;
+    Ok(Measured {
+        codec,
+        summary: quiet.summary,
+        sim_records: quiet.sim_records,
+        realistic: quiet.realistic,
+        hostile: quiet.hostile,
+        scraped: Some((scraped, got.line())),
+        stack,
+        counters: last_counters(&log),
+        log,
+    })
+}
+
+/// One measured phase of the `-icount` boot.
+pub struct Phase {
+    pub summary: Summary,
+    /// The simulator's bench records (the first answer, ARP warm-up, left
+    /// out).
+    pub sim_records: Vec<Record>,
+    pub realistic: Vec<(Input, Vec<Record>)>,
+    pub hostile: Vec<(Input, Vec<Record>)>,
+}
+
+/// The simulator lock-step for `args.cycles`, then every corpus message
+/// `args.repeat` times; Ids from `first_id` on.
+fn phase(
+    args: &Args,
+    board: &Qemu,
+    to: SocketAddr,
+    gsi: &std::path::Path,
+    device: &gsi_config::Device,
+    first_id: u32,
+) -> Result<Phase, String> {
     // Lock-step: each message leaves when the previous one is answered.
     // Under -icount the guest's clock is not the host's, and 4 ms host
     // pacing delivered datagrams in bursts that QEMU's user networking and
@@ -224,7 +277,7 @@ fn counted(
         "== robot simulator: {} cycles, lock-step (each message after the previous reply; instructions counted)",
         args.cycles
     );
-    let sim = drive(&board, to, gsi, device, args.cycles, 0, false)?;
+    let sim = drive(board, to, gsi, device, args.cycles, 0, false)?;
     // The first answer waits for ARP through slirp (idle time in the
     // count): warm-up, not a cycle.
     let sim_records = records(&sim.lines)
@@ -232,19 +285,17 @@ fn counted(
         .skip_while(|r| !r.answered)
         .skip(1)
         .collect();
-
-    // 3. The corpora, one message at a time.
     let ws = host_tests::workspace();
     let socket = UdpSocket::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
     socket
         .set_read_timeout(Some(Duration::from_millis(50)))
         .map_err(|e| e.to_string())?;
-    let mut next_id = sim.summary.sent as u32 + 1000;
+    let mut next_id = first_id + sim.summary.sent as u32 + 1000;
     let mut rows = |inputs: Vec<Input>| -> Result<Vec<(Input, Vec<Record>)>, String> {
         inputs
             .into_iter()
             .map(|input| {
-                let got = measure(&board, &socket, to, &input, args.repeat, &mut next_id)?;
+                let got = measure(board, &socket, to, &input, args.repeat, &mut next_id)?;
                 Ok((input, got))
             })
             .collect()
@@ -254,18 +305,11 @@ fn counted(
         &ws.join("host-tests/bench"),
     )?)?;
     let hostile = rows(qb::hostile())?;
-    // The stack's high-water mark reaches the log within a second.
-    let stack = wait_for_stack(&board)?;
-    let log = finish(board, "during the bench")?;
-    Ok(Measured {
-        codec,
+    Ok(Phase {
         summary: sim.summary,
         sim_records,
         realistic,
         hostile,
-        stack,
-        counters: last_counters(&log),
-        log,
     })
 }
 
@@ -283,6 +327,7 @@ fn flood(
     let flood_boot = Boot {
         elf: qemu::build_firmware(&[], Some(gsi), "bench-flood")?,
         icount_shift: None,
+        http_port: None,
         host_port: qemu::free_port()?,
         ..boot.clone()
     };

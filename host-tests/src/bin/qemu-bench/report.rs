@@ -52,34 +52,49 @@ struct Figures {
     /// realistic inputs first, and its max over the realistic ones.
     floor: Vec<(String, usize, u64, u64)>,
     floor_max: u64,
+    /// The scrape run: the same figures while the diagnostics were read.
+    scraped: Option<ScrapeFigures>,
+}
+
+/// The scrape run's figures, beside the same build's quiet ones.
+struct ScrapeFigures {
+    compute: Spread,
+    full: Spread,
+    hostile_max: u64,
+    /// Replies lost, wrong or late (the device's count).
+    missed: u64,
+    /// What the scraper got.
+    scraper: String,
+}
+
+/// Compute and full-path spreads over a simulator run and the realistic
+/// inputs, and the replies the device saw late (a full path past one
+/// cycle at 216 MHz).
+fn spreads(sim: &[Record], realistic: &[(Input, Vec<Record>)]) -> (Spread, Spread, u64) {
+    let mut compute: Vec<u64> = sim.iter().map(|r| instructions(r.compute)).collect();
+    let mut full: Vec<u64> = sim
+        .iter()
+        .filter(|r| r.answered)
+        .map(|r| instructions(r.full))
+        .collect();
+    for (_, rows) in realistic {
+        compute.extend(rows.iter().map(|r| instructions(r.compute)));
+        full.extend(
+            rows.iter()
+                .filter(|r| r.answered)
+                .map(|r| instructions(r.full)),
+        );
+    }
+    let late = sim
+        .iter()
+        .filter(|r| r.answered && instructions(r.full) > CYCLE_AT_216MHZ)
+        .count() as u64;
+    (Spread::of(compute), Spread::of(full), late)
 }
 
 impl Figures {
     fn of(m: &Measured, floor: &[(Input, Vec<Record>)], fl: &Flooded) -> Self {
-        let mut compute: Vec<u64> = m
-            .sim_records
-            .iter()
-            .map(|r| instructions(r.compute))
-            .collect();
-        let mut full: Vec<u64> = m
-            .sim_records
-            .iter()
-            .filter(|r| r.answered)
-            .map(|r| instructions(r.full))
-            .collect();
-        for (_, rows) in &m.realistic {
-            compute.extend(rows.iter().map(|r| instructions(r.compute)));
-            full.extend(
-                rows.iter()
-                    .filter(|r| r.answered)
-                    .map(|r| instructions(r.full)),
-            );
-        }
-        let late_device = m
-            .sim_records
-            .iter()
-            .filter(|r| r.answered && instructions(r.full) > CYCLE_AT_216MHZ)
-            .count() as u64;
+        let (compute, full, late_device) = spreads(&m.sim_records, &m.realistic);
         let f = &fl.driven.summary;
         // Gated: the deterministic run. Under the flood (real time) a wrong
         // or malformed reply fails too, and so does a robot message lost in
@@ -118,9 +133,24 @@ impl Figures {
             .map(|f| f.3)
             .max()
             .unwrap_or(0);
+        let scraped = m.scraped.as_ref().map(|(p, scraper)| {
+            let (compute, full, late) = spreads(&p.sim_records, &p.realistic);
+            ScrapeFigures {
+                compute,
+                full,
+                hostile_max: p
+                    .hostile
+                    .iter()
+                    .map(|(_, r)| hostile_cost(r))
+                    .max()
+                    .unwrap_or(0),
+                missed: p.summary.lost + p.summary.wrong_id + p.summary.malformed + late,
+                scraper: scraper.clone(),
+            }
+        });
         Figures {
-            compute: Spread::of(compute),
-            full: Spread::of(full),
+            compute,
+            full,
             late_device,
             missed,
             hostile,
@@ -130,6 +160,7 @@ impl Figures {
             stack_margin,
             floor,
             floor_max,
+            scraped,
         }
     }
 
@@ -255,6 +286,29 @@ fn print(args: &Args, m: &Measured, fl: &Flooded, x: &Figures) {
         x.hostile_max,
         x.hostile_max as f64 / 216.0
     );
+    if let Some(sc) = &x.scraped {
+        println!(
+            "\n== the scrape run: the same phases while the diagnostics were read ({})",
+            sc.scraper
+        );
+        println!("  {:<22} {:>10} {:>10}", "", "quiet", "scraped");
+        for (what, quiet, scraped) in [
+            ("compute max", x.compute.max, sc.compute.max),
+            ("compute median", x.compute.median, sc.compute.median),
+            ("full-path max", x.full.max, sc.full.max),
+            ("full-path median", x.full.median, sc.full.median),
+            ("hostile worst", x.hostile_max, sc.hostile_max),
+        ] {
+            println!(
+                "  {what:<22} {quiet:>10} {scraped:>10}  {:+.2} %",
+                (scraped as f64 / quiet.max(1) as f64 - 1.0) * 100.0
+            );
+        }
+        println!(
+            "  replies missed, wrong or late while scraped: {}",
+            sc.missed
+        );
+    }
     let (stack_boot, stack_running, stack_size) = x.stack;
     println!(
         "\n== stack (painted; thread mode and every interrupt share the one main stack)\n  start-up {stack_boot} bytes (building the network stack), running {stack_running} bytes (after the bench and the hostile inputs), of a {stack_size}-byte budget: {}% margin (fails under {MIN_STACK_MARGIN_PERCENT}%)",
@@ -289,6 +343,8 @@ fn write_files(m: &Measured, fl: &Flooded, x: &Figures) -> Result<(), String> {
         "hostile": hostile_json,
         "floor": x.floor.iter().map(|(n, b, med, max)| json!({"name": n, "bytes": b, "median": med, "max": max})).collect::<Vec<_>>(),
         "floor_realistic_max": x.floor_max,
+        "scraped": x.scraped.as_ref().map(|sc| json!({"compute": sc.compute, "full": sc.full,
+            "hostile_max": sc.hostile_max, "missed": sc.missed, "scraper": sc.scraper})),
         "stack": {"boot": stack_boot, "running": stack_running, "budget": stack_size, "margin_percent": x.stack_margin},
         "baseline_compute_median": x.baseline_median,
         "codec": m.codec.iter().map(|(n, b, o, t, base)| json!({"message": n, "bytes": b,
@@ -348,6 +404,31 @@ fn gate(args: &Args, x: &Figures) -> Result<bool, String> {
             x.stack_margin
         );
         ok = false;
+    }
+    if let Some(sc) = &x.scraped {
+        // The service never at the cycle's expense: the same build's figures
+        // with and without a client on the diagnostics.
+        let checks = [
+            ("full-path max", sc.full.max, x.full.max, 0.05),
+            ("compute max", sc.compute.max, x.compute.max, 0.01),
+            ("hostile worst", sc.hostile_max, x.hostile_max, 0.05),
+        ];
+        for (what, scraped, quiet, tolerance) in checks {
+            if scraped as f64 > quiet as f64 * (1.0 + tolerance) {
+                println!(
+                    "FAIL: scrape run: {what} {scraped} is more than {:.0} % over the quiet run's {quiet}",
+                    tolerance * 100.0
+                );
+                ok = false;
+            }
+        }
+        if sc.missed > 0 {
+            println!(
+                "FAIL: scrape run: {} replies missed, wrong or late",
+                sc.missed
+            );
+            ok = false;
+        }
     }
     match std::fs::read_to_string(&baseline_path) {
         Ok(text) => {

@@ -1,0 +1,280 @@
+//! [`Link`]: what the fragment guard (in the network runner) and the
+//! cycle share: who the controller is, the guard's counters, the reply
+//! latency at the driver, and the [`Hold`] that keeps other traffic from
+//! between a robot message and its reply.
+
+use super::{Controller, FragmentStats};
+use crate::engine::Histogram;
+use core::cell::{Cell, RefCell};
+use critical_section::Mutex;
+
+/// What the fragment guard (in the network runner) and the cycle share:
+/// the cycle tells who the controller is after every message, the guard
+/// publishes its counters after every frame that changed them. Both sides
+/// hold it a few instructions under a critical section.
+pub struct Link {
+    controller: Mutex<Cell<Controller>>,
+    stats: Mutex<Cell<FragmentStats>>,
+    /// The reply latency at the driver (the guard's clock): when the
+    /// last robot message's last frame came in, and every reply's time.
+    wire: Mutex<RefCell<(Option<u64>, Histogram)>>,
+    /// Where the robot message handed to the stack last is ([`Hold`]),
+    /// and the network runner to wake when the cycle is done with it.
+    hold: Mutex<RefCell<(Hold, Option<core::task::Waker>)>>,
+    /// The cycle's socket exists (see [`Link::channel_open`]).
+    channel_open: core::sync::atomic::AtomicBool,
+}
+
+/// Where a robot message handed to the stack is, for the guard: while
+/// the cycle works on it the network runner does nothing (it would send
+/// the diagnostics' segments, or anyone's, in front of the reply, and
+/// take in frames the reply then waits behind); once its reply is about
+/// to be queued, frames may leave (the reply first: its socket is the
+/// first the runner serves) but nothing comes in before the reply has
+/// left. So no other traffic is ever between a robot message and its
+/// reply at the driver. [`HOLD_MAX_US`] bounds both.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Hold {
+    /// No robot message in the works.
+    #[default]
+    Idle,
+    /// A robot message was handed to the stack at `since_us`; the cycle
+    /// has not finished with it.
+    Awaiting {
+        /// When it was handed over (µs).
+        since_us: u64,
+    },
+    /// Its reply is (about to be) queued in the socket, not yet taken by
+    /// the driver.
+    Composed {
+        /// When the message was handed over (µs).
+        since_us: u64,
+        /// The runner was held once already: the reply had its egress
+        /// first. Frames come in again after that (the reply may be
+        /// waiting for them: an ARP answer).
+        held: bool,
+    },
+}
+
+/// The longest a [`Hold`] holds other traffic back (µs): half a robot
+/// cycle. Only a cycle that never finishes (or a reply that cannot leave)
+/// reaches it.
+pub const HOLD_MAX_US: u64 = 2_000;
+
+impl Default for Link {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Link {
+    /// Anyone may be the controller, every counter at zero (`const`, for a
+    /// `static`).
+    pub const fn new() -> Self {
+        Link {
+            controller: Mutex::new(Cell::new(Controller::ANYONE)),
+            stats: Mutex::new(Cell::new(FragmentStats::ZERO)),
+            wire: Mutex::new(RefCell::new((None, Histogram::EMPTY))),
+            hold: Mutex::new(RefCell::new((Hold::Idle, None))),
+            channel_open: core::sync::atomic::AtomicBool::new(false),
+        }
+    }
+
+    /// The cycle: its socket (or sockets) on the channel port exist. The
+    /// network runner serves sockets in the order they were made, so any
+    /// other socket (the diagnostics') is made after this: a reply is the
+    /// first frame out of a runner's turn.
+    pub fn channel_open(&self) {
+        self.channel_open
+            .store(true, core::sync::atomic::Ordering::Release);
+    }
+
+    /// Whether [`Link::channel_open`] was called.
+    pub fn is_channel_open(&self) -> bool {
+        self.channel_open
+            .load(core::sync::atomic::Ordering::Acquire)
+    }
+
+    /// The guard: a robot message's last frame was handed to the stack
+    /// at `at_us`.
+    pub fn message_in(&self, at_us: u64) {
+        critical_section::with(|cs| {
+            self.wire.borrow_ref_mut(cs).0 = Some(at_us);
+            self.hold.borrow_ref_mut(cs).0 = Hold::Awaiting { since_us: at_us };
+        });
+    }
+
+    /// The cycle, done with what arrived: its reply is about to be queued
+    /// (`replied`; call this before the send, which may wait for room the
+    /// runner makes), or there is none. Wakes the network runner the
+    /// guard held back.
+    pub fn turn_done(&self, replied: bool) {
+        let waker = critical_section::with(|cs| {
+            let mut hold = self.hold.borrow_ref_mut(cs);
+            if let Hold::Awaiting { since_us } = hold.0 {
+                hold.0 = if replied {
+                    Hold::Composed {
+                        since_us,
+                        held: false,
+                    }
+                } else {
+                    Hold::Idle
+                };
+            }
+            hold.1.take()
+        });
+        if let Some(w) = waker {
+            w.wake();
+        }
+    }
+
+    /// The guard: may a frame leave now (`false` while the cycle works on
+    /// a robot message; `waker` is woken when it is done)?
+    pub fn may_transmit(&self, now_us: u64, waker: &core::task::Waker) -> bool {
+        self.may(now_us, waker, |h| matches!(h, Hold::Awaiting { .. }))
+    }
+
+    /// The guard: may a frame come in now (`false` while the cycle works
+    /// on a robot message, and for one runner poll once its reply is
+    /// queued, so that the reply's egress comes first)?
+    pub fn may_receive(&self, now_us: u64, waker: &core::task::Waker) -> bool {
+        self.may(now_us, waker, |h| match h {
+            Hold::Idle => false,
+            Hold::Awaiting { .. } => true,
+            Hold::Composed { held, .. } => !core::mem::replace(held, true),
+        })
+    }
+
+    /// Whether the hold (`holds`, which may note that it held) keeps a
+    /// frame back now; registers `waker` for the cycle's end of turn.
+    fn may(&self, now_us: u64, waker: &core::task::Waker, holds: fn(&mut Hold) -> bool) -> bool {
+        critical_section::with(|cs| {
+            let mut hold = self.hold.borrow_ref_mut(cs);
+            let since = match hold.0 {
+                Hold::Idle => return true,
+                Hold::Awaiting { since_us } | Hold::Composed { since_us, .. } => since_us,
+            };
+            if now_us.saturating_sub(since) >= HOLD_MAX_US {
+                hold.0 = Hold::Idle;
+                return true;
+            }
+            if !holds(&mut hold.0) {
+                return true;
+            }
+            if !hold.1.as_ref().is_some_and(|w| w.will_wake(waker)) {
+                hold.1 = Some(waker.clone());
+            }
+            false
+        })
+    }
+
+    /// The guard: the driver took a reply's first frame at `at_us`; the
+    /// time since the message came in is recorded (a send with no message
+    /// waiting, a periodic one, is not).
+    pub fn reply_out(&self, at_us: u64) {
+        critical_section::with(|cs| {
+            let mut wire = self.wire.borrow_ref_mut(cs);
+            if let Some(at) = wire.0.take() {
+                wire.1.record_at(at_us.saturating_sub(at), at_us);
+            }
+            self.hold.borrow_ref_mut(cs).0 = Hold::Idle;
+        });
+    }
+
+    /// The reply latency at the driver: every reply since the start.
+    pub fn latency(&self) -> Histogram {
+        critical_section::with(|cs| self.wire.borrow_ref(cs).1)
+    }
+
+    /// Who the controller is now.
+    pub fn controller(&self) -> Controller {
+        critical_section::with(|cs| self.controller.borrow(cs).get())
+    }
+
+    /// The cycle, after each message: who the controller is now.
+    pub fn set_controller(&self, controller: Controller) {
+        critical_section::with(|cs| self.controller.borrow(cs).set(controller));
+    }
+
+    /// The guard's counters as last published.
+    pub fn stats(&self) -> FragmentStats {
+        critical_section::with(|cs| self.stats.borrow(cs).get())
+    }
+
+    /// The guard: its counters changed.
+    pub fn publish(&self, stats: FragmentStats) {
+        critical_section::with(|cs| self.stats.borrow(cs).set(stats));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use core::task::Waker;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Arc;
+
+    struct Count(AtomicUsize);
+    impl std::task::Wake for Count {
+        fn wake(self: Arc<Self>) {
+            self.0.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    fn waker() -> (Arc<Count>, Waker) {
+        let c = Arc::new(Count(AtomicUsize::new(0)));
+        (c.clone(), Waker::from(c))
+    }
+
+    #[test]
+    fn nothing_moves_while_the_cycle_works_and_the_reply_leaves_first() {
+        let link = Link::new();
+        let (woken, w) = waker();
+        assert!(link.may_transmit(0, &w) && link.may_receive(0, &w), "idle");
+        link.message_in(100);
+        assert!(!link.may_transmit(150, &w), "the cycle works: nothing out");
+        assert!(!link.may_receive(150, &w), "the cycle works: nothing in");
+        link.turn_done(true);
+        assert_eq!(woken.0.load(Ordering::Relaxed), 1, "the runner is woken");
+        assert!(link.may_transmit(200, &w), "the reply may leave");
+        assert!(!link.may_receive(200, &w), "nothing in before it, once");
+        assert!(
+            link.may_receive(210, &w),
+            "then frames come in (an ARP answer)"
+        );
+        link.reply_out(230);
+        assert!(link.may_transmit(240, &w) && link.may_receive(240, &w));
+        assert_eq!(link.latency().count, 1);
+        assert_eq!(link.latency().max_us, 130);
+    }
+
+    #[test]
+    fn a_message_without_a_reply_releases_the_runner_at_once() {
+        let link = Link::new();
+        let (woken, w) = waker();
+        link.message_in(100);
+        assert!(!link.may_transmit(120, &w));
+        link.turn_done(false);
+        assert_eq!(woken.0.load(Ordering::Relaxed), 1);
+        assert!(link.may_transmit(130, &w) && link.may_receive(130, &w));
+        assert_eq!(link.latency().count, 0, "no reply, no latency");
+    }
+
+    #[test]
+    fn a_hold_never_outlasts_its_bound() {
+        let link = Link::new();
+        let (_, w) = waker();
+        link.message_in(1_000);
+        assert!(!link.may_transmit(1_000 + HOLD_MAX_US - 1, &w));
+        assert!(
+            link.may_transmit(1_000 + HOLD_MAX_US, &w),
+            "a cycle that never finishes"
+        );
+        assert!(link.may_receive(1_000 + HOLD_MAX_US, &w));
+        link.message_in(5_000);
+        link.turn_done(true);
+        assert!(!link.may_receive(5_001, &w));
+        // The reply never leaves (its frame refused): frames come in again.
+        assert!(link.may_receive(5_002, &w));
+    }
+}
