@@ -80,7 +80,14 @@ impl Web {
                             )),
                             Err(e) => seen.push(format!("load failed: {e}")),
                         }
-                        std::thread::sleep(Duration::from_secs(2));
+                        // A browser start costs this shared host a core for
+                        // a while: a load every few seconds is plenty.
+                        for _ in 0..50 {
+                            if stop.load(Ordering::Relaxed) {
+                                break;
+                            }
+                            std::thread::sleep(Duration::from_millis(100));
+                        }
                     }
                     seen
                 }))

@@ -217,12 +217,7 @@ type Started = (Box<dyn Device>, SocketAddr, Option<SocketAddr>);
 
 /// Starts the device: `probe-rs run` on a NUCLEO, QEMU for `qemu`; where
 /// the simulator reaches it, and its diagnostics.
-fn start(
-    board: &HilBoard,
-    args: &Args,
-    setup: &Setup,
-    elf: PathBuf,
-) -> Result<Started, String> {
+fn start(board: &HilBoard, args: &Args, setup: &Setup, elf: PathBuf) -> Result<Started, String> {
     match board.chip {
         Some(chip) => {
             let to = match &args.to {
