@@ -20,7 +20,10 @@
 //!
 //! The `fault-selftest` feature makes the board execute an undefined
 //! instruction at the end of its `init`, so that `cargo hil -- --fault`
-//! can check the handler end to end (on QEMU in CI, on a NUCLEO by hand).
+//! can check the handler end to end (on QEMU in CI, on a NUCLEO by hand):
+//! once, unless the last reset was that HardFault, so that the start
+//! after it goes on and logs what the crash record kept across the reset
+//! (`hal_board::reset`).
 #![allow(unsafe_code)]
 
 use cortex_m_rt::{exception, ExceptionFrame};
@@ -45,7 +48,8 @@ unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
 }
 
 /// Executes a permanently undefined instruction (the boards call it at the
-/// end of `init` with the `fault-selftest` feature).
+/// end of `init` with the `fault-selftest` feature, unless they start
+/// after a HardFault).
 pub fn selftest() -> ! {
     defmt::warn!("fault self-test: executing an undefined instruction");
     cortex_m::asm::udf()

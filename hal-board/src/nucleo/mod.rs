@@ -179,7 +179,7 @@ pub fn init() -> Result<Board, InitError> {
     // After the MAC's reset (in `new_with_phy`): MDIO goes through it.
     let monitor = phy::Monitor::start(Sma::new(p.ETH_SMA, p.PA2, p.PC1));
     LINK_MONITOR.lock(|m| m.set(Some(monitor)));
-    if cfg!(feature = "fault-selftest") {
+    if cfg!(feature = "fault-selftest") && reset.cause != crate::reset::Cause::HardFault {
         crate::fault::selftest();
     }
     Ok(Board {
