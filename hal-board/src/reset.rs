@@ -45,6 +45,21 @@ pub enum Cause {
     Panic,
 }
 
+impl Cause {
+    /// As the log, the page and the JSON name it.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Cause::PowerOn => "power-on",
+            Cause::Pin => "reset pin",
+            Cause::BrownOut => "brown-out",
+            Cause::Watchdog => "watchdog",
+            Cause::Software => "software",
+            Cause::HardFault => "HardFault",
+            Cause::Panic => "panic",
+        }
+    }
+}
+
 /// What the chip's own reset flags say, where it has them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Flags {
@@ -66,6 +81,23 @@ pub struct Report {
     pub panic: Option<([u8; FILE_BYTES], u8, u32)>,
     /// Starts since power-on, this one included.
     pub boots: u32,
+}
+
+impl Report {
+    /// Before start-up has read the record (all zero bytes, so a
+    /// `static` holding it starts in `.bss`).
+    pub const UNKNOWN: Report = Report {
+        cause: Cause::PowerOn,
+        pc: None,
+        panic: None,
+        boots: 0,
+    };
+
+    /// The panic's file name (the bytes kept) and line, if it was a panic.
+    pub fn panic_file(&self) -> Option<(&[u8], u32)> {
+        let (file, len, line) = self.panic.as_ref()?;
+        Some((file.get(..usize::from(*len)).unwrap_or(&[]), *line))
+    }
 }
 
 /// The words kept across a reset.
@@ -245,15 +277,16 @@ pub(crate) mod ram {
     }
 
     /// Changes the record in place, from a fault or panic handler (the
-    /// board resets right after).
+    /// board resets right after). In place, not as a volatile copy of the
+    /// whole record: that copy cost 650 bytes of flash; the fence keeps
+    /// the stores before the reset that follows.
     #[inline(never)]
     pub(crate) fn note(f: &mut dyn FnMut(&mut CrashRecord)) {
-        // SAFETY: the reserved words; the handlers that call this never
-        // return, and interrupts of lower priority cannot run meanwhile.
-        let mut r = unsafe { core::ptr::read_volatile(place()) };
-        f(&mut r);
-        // SAFETY: as above.
-        unsafe { core::ptr::write_volatile(place(), r) };
+        // SAFETY: the reserved words, which nothing else references; the
+        // handlers that call this never return, and interrupts of lower
+        // priority cannot run meanwhile.
+        f(unsafe { &mut *place() });
+        core::sync::atomic::compiler_fence(core::sync::atomic::Ordering::SeqCst);
     }
 }
 

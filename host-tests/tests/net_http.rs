@@ -19,7 +19,7 @@ use memnet::{
     mock_clock, net_config, poll_once, Frames, MemDriver, DEVICE_MAC, ROBOT_IP, ROBOT_MAC,
 };
 use rri_diag::serve::{self, Renderer, ServiceHalf, ServiceStats, Slot, SocketHalf, SLOTS, WINDOW};
-use rri_diag::status::{Latency, LatencySource, LinkStatus, ResetInfo};
+use rri_diag::status::{Latency, LatencySource, LinkInfo};
 use rri_diag::{Identity, Status};
 use rri_firmware::snapshot::Snapshot;
 use smoltcp::wire::Ipv4Address;
@@ -56,7 +56,7 @@ fn fill(out: &mut Option<Status>) {
     *out = Some(Status {
         snapshot: Snapshot::default(),
         now: rri_firmware::engine::Instant(Instant::now().as_micros()),
-        link: LinkStatus::default(),
+        link: LinkInfo::default(),
         nic: None,
         stack: None,
         latency: Latency {
@@ -65,7 +65,7 @@ fn fill(out: &mut Option<Status>) {
         },
         bad: None,
         events: Default::default(),
-        reset: ResetInfo::HOST,
+        reset: None,
     });
 }
 

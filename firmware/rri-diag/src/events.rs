@@ -4,10 +4,11 @@
 //! background's priority) writes them by comparing the snapshots the
 //! cycle publishes; the cycle never does.
 
-use super::status::ResetCause;
+use super::status::{LinkInfo, ResetCause};
 use core::cell::Cell;
 use critical_section::Mutex;
 use rri_firmware::engine::{Endpoint, ErrorCode, Instant, SensorState};
+use rri_firmware::snapshot::Snapshot;
 
 /// Events kept.
 pub const EVENTS: usize = 16;
@@ -44,7 +45,10 @@ pub struct Event {
 /// per response).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct EventLog {
-    ring: [Option<Event>; EVENTS],
+    /// The first `total.min(EVENTS)` are events; the rest are
+    /// [`EventLog::FILLER`] (all zero bytes, not `None`: so that a
+    /// `static` log starts in `.bss` and costs no flash).
+    ring: [Event; EVENTS],
     /// Events ever pushed (the next one goes to `total % EVENTS`).
     total: u32,
 }
@@ -58,14 +62,20 @@ impl Default for EventLog {
 impl EventLog {
     /// Nothing yet.
     pub const EMPTY: EventLog = EventLog {
-        ring: [None; EVENTS],
+        ring: [Self::FILLER; EVENTS],
         total: 0,
+    };
+
+    /// What the unused entries hold (never shown).
+    const FILLER: Event = Event {
+        at: Instant(0),
+        kind: EventKind::Started(ResetCause::PowerOn),
     };
 
     /// Adds `kind` at `at`, forgetting the oldest when full.
     pub fn push(&mut self, at: Instant, kind: EventKind) {
         if let Some(slot) = self.ring.get_mut(self.total as usize % EVENTS) {
-            *slot = Some(Event { at, kind });
+            *slot = Event { at, kind };
         }
         self.total = self.total.wrapping_add(1);
     }
@@ -78,12 +88,8 @@ impl EventLog {
     /// The kept events, newest first.
     pub fn newest_first(&self) -> impl Iterator<Item = Event> + '_ {
         let total = self.total as usize;
-        (1..=EVENTS.min(total)).filter_map(move |back| {
-            self.ring
-                .get((total.wrapping_sub(back)) % EVENTS)
-                .copied()
-                .flatten()
-        })
+        (1..=EVENTS.min(total))
+            .filter_map(move |back| self.ring.get(total.wrapping_sub(back) % EVENTS).copied())
     }
 }
 
@@ -114,6 +120,42 @@ impl Events {
             log.push(at, kind);
             cell.set(log);
         });
+    }
+
+    /// After each look at the cycle (housekeeping on a board, the sensor
+    /// thread on the host): the events between snapshot `last` and `now`,
+    /// at `at`. One place for every form of the device, built for size.
+    #[inline(never)]
+    pub fn between(&self, at: Instant, last: &Snapshot, now: &Snapshot) {
+        if now.state != last.state || now.error != last.error {
+            self.push(at, EventKind::State(now.state, now.error));
+        }
+        if now.stats.timeouts > last.stats.timeouts {
+            self.push(at, EventKind::TimeOut);
+        }
+        if now.stats.max_lost_exceeded > last.stats.max_lost_exceeded {
+            self.push(at, EventKind::MaxLost);
+        }
+        if let Some(peer) = now.peer.filter(|_| now.peer != last.peer) {
+            self.push(at, EventKind::Peer(peer));
+        }
+    }
+
+    /// The link as seen now against `last` (updated): an event when it
+    /// changed.
+    #[inline(never)]
+    pub fn link(&self, at: Instant, seen: LinkInfo, last: &mut LinkInfo) {
+        if seen != *last {
+            self.push(
+                at,
+                if seen.up {
+                    EventKind::LinkUp(seen.speed_mbps, seen.full_duplex)
+                } else {
+                    EventKind::LinkDown
+                },
+            );
+            *last = seen;
+        }
     }
 
     /// A copy of the log.

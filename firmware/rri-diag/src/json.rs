@@ -45,10 +45,7 @@ impl<'o> Members<'o> {
 
     #[inline(never)]
     fn text(&mut self, k: &str, v: &str) {
-        let o = self.key(k);
-        o.str("\"");
-        o.json(v);
-        o.str("\"");
+        self.quoted(k, &mut |o| o.json(v));
     }
 
     #[inline(never)]
@@ -61,15 +58,36 @@ impl<'o> Members<'o> {
         self.key(k).str("null");
     }
 
+    /// A number, or `null` where there is none.
+    #[inline(never)]
+    fn opt_num(&mut self, k: &str, v: Option<u64>) {
+        match v {
+            Some(v) => self.num(k, v),
+            None => self.null(k),
+        }
+    }
+
+    #[inline(never)]
+    fn opt_flag(&mut self, k: &str, v: Option<bool>) {
+        match v {
+            Some(v) => self.flag(k, v),
+            None => self.null(k),
+        }
+    }
+
+    /// `"k":"…"`, the string's content written by `f` (escaped by it).
+    #[inline(never)]
+    fn quoted(&mut self, k: &str, f: &mut dyn FnMut(&mut dyn Out)) {
+        let o = self.key(k);
+        o.str("\"");
+        f(o);
+        o.str("\"");
+    }
+
     #[inline(never)]
     fn endpoint(&mut self, k: &str, e: Option<Endpoint>) {
         match e {
-            Some(e) => {
-                let o = self.key(k);
-                o.str("\"");
-                view::endpoint(o, e);
-                o.str("\"");
-            }
+            Some(e) => self.quoted(k, &mut |o| view::endpoint(o, e)),
             None => self.null(k),
         }
     }
@@ -109,15 +127,12 @@ pub fn write(out: &mut dyn Out, id: &Identity, s: &Status) {
     m.object("state", &mut |st| {
         let snap = &s.snapshot;
         st.text("state", snap.state.name());
-        match snap.error {
-            Some(e) => st.num("error_code", e.code().into()),
-            None => st.null("error_code"),
-        }
+        st.opt_num("error_code", snap.error.map(|e| e.code().into()));
         st.endpoint("peer", snap.peer);
-        match snap.last_message {
-            Some(at) => st.num("since_last_message_us", s.now.micros_since(at)),
-            None => st.null("since_last_message_us"),
-        }
+        st.opt_num(
+            "since_last_message_us",
+            snap.last_message.map(|at| s.now.micros_since(at)),
+        );
     });
     m.object("counters", &mut |c| counters(c, s, id.received.len()));
     m.object("latency", &mut |l| {
@@ -154,13 +169,9 @@ pub fn write(out: &mut dyn Out, id: &Identity, s: &Status) {
             b.num("at_us", bad.at.as_micros());
             b.endpoint("from", Some(bad.from));
             b.text("error", bad.kind.name());
-            b.text("error_text", bad.kind.text());
             b.num("offset", bad.offset.into());
             b.num("length", bad.len.into());
-            let o = b.key("bytes");
-            o.str("\"");
-            o.json_bytes(bad.bytes());
-            o.str("\"");
+            b.quoted("bytes", &mut |o| o.json_bytes(bad.bytes()));
         }),
         None => m.null("last_bad_message"),
     }
@@ -170,13 +181,7 @@ pub fn write(out: &mut dyn Out, id: &Identity, s: &Status) {
         let mut ev = Members::new(o);
         ev.num("at_us", e.at.as_micros());
         ev.text("event", view::event_name(&e.kind));
-        let o = ev.key("text");
-        o.str("\"");
-        view::event_text(&mut JsonText(o), &e.kind);
-        o.str("\"");
-        if let EventKind::Peer(p) = e.kind {
-            ev.endpoint("peer", Some(p));
-        }
+        event(&mut ev, e.kind);
         o_close(ev.out);
     });
     out.str("}\n");
@@ -186,13 +191,21 @@ fn o_close(o: &mut dyn Out) {
     o.str("}");
 }
 
-/// An [`Out`] that escapes everything written through it for a JSON
-/// string (event texts hold names from the GSI folder).
-struct JsonText<'o>(&'o mut dyn Out);
-
-impl Out for JsonText<'_> {
-    fn bytes(&mut self, b: &[u8]) {
-        self.0.json_bytes(b);
+/// An event's own fields (the page words them for people).
+#[inline(never)]
+fn event(ev: &mut Members<'_>, kind: EventKind) {
+    match kind {
+        EventKind::Started(cause) => ev.text("cause", cause.name()),
+        EventKind::State(state, error) => {
+            ev.text("state", state.name());
+            ev.opt_num("error_code", error.map(|e| e.code().into()));
+        }
+        EventKind::LinkUp(speed, duplex) => {
+            ev.opt_num("speed_mbps", speed.map(u64::from));
+            ev.opt_flag("full_duplex", duplex);
+        }
+        EventKind::Peer(p) => ev.endpoint("peer", Some(p)),
+        EventKind::TimeOut | EventKind::MaxLost | EventKind::LinkDown => {}
     }
 }
 
@@ -211,67 +224,35 @@ fn device(d: &mut Members<'_>, id: &Identity, s: &Status) {
         f.text("file", id.sensor_file);
     });
     match id.mac {
-        Some(mac) => {
-            let o = d.key("mac");
-            o.str("\"");
-            o.mac(mac);
-            o.str("\"");
-        }
+        Some(mac) => d.quoted("mac", &mut |o| o.mac(mac)),
         None => d.null("mac"),
     }
-    let o = d.key("ip");
-    o.str("\"");
-    o.ipv4(id.ip);
-    o.str("\"");
+    d.quoted("ip", &mut |o| o.ipv4(id.ip));
     d.num("prefix_len", id.prefix.into());
     match id.gateway {
-        Some(g) => {
-            let o = d.key("gateway");
-            o.str("\"");
-            o.ipv4(g);
-            o.str("\"");
-        }
+        Some(g) => d.quoted("gateway", &mut |o| o.ipv4(g)),
         None => d.null("gateway"),
     }
     d.object("link", &mut |l| {
         l.flag("up", s.link.up);
-        match s.link.speed_mbps {
-            Some(v) => l.num("speed_mbps", v.into()),
-            None => l.null("speed_mbps"),
-        }
-        match s.link.full_duplex {
-            Some(v) => l.flag("full_duplex", v),
-            None => l.null("full_duplex"),
-        }
+        l.opt_num("speed_mbps", s.link.speed_mbps.map(u64::from));
+        l.opt_flag("full_duplex", s.link.full_duplex);
     });
     d.num("uptime_us", s.now.as_micros());
-    d.object("reset", &mut |r| {
-        r.text("cause", s.reset.cause.name());
-        r.num("boots", s.reset.boots.into());
-        match s.reset.pc {
-            Some((pc, lr)) => {
-                r.num("pc", pc.into());
-                r.num("lr", lr.into());
+    match &s.reset {
+        Some(reset) => d.object("reset", &mut |r| {
+            r.text("cause", reset.cause.name());
+            r.num("boots", reset.boots.into());
+            r.opt_num("pc", reset.pc.map(|(pc, _)| pc.into()));
+            r.opt_num("lr", reset.pc.map(|(_, lr)| lr.into()));
+            match reset.panic_file() {
+                Some((file, _)) => r.quoted("panic_file", &mut |o| o.json_bytes(file)),
+                None => r.null("panic_file"),
             }
-            None => {
-                r.null("pc");
-                r.null("lr");
-            }
-        }
-        match s.reset.panic_file() {
-            Some((file, line)) => {
-                let o = r.key("panic_file");
-                o.str("\"");
-                o.json_bytes(file);
-                o.str("\"");
-                r.num("panic_line", line.into());
-            }
-            None => {
-                r.null("panic_file");
-                r.null("panic_line");
-            }
-        }
-    });
+            r.opt_num("panic_line", reset.panic_file().map(|(_, l)| l.into()));
+        }),
+        None => d.null("reset"),
+    }
 }
 
 #[inline(never)]
@@ -280,12 +261,7 @@ fn config(c: &mut Members<'_>, id: &Identity) {
     c.num("port", id.port.into());
     c.num("http_port", id.http_port.into());
     match id.config.controller {
-        Some(p) => {
-            let o = c.key("controller");
-            o.str("\"");
-            view::pinned(o, p);
-            o.str("\"");
-        }
+        Some(p) => c.quoted("controller", &mut |o| view::pinned(o, p)),
         None => c.null("controller"),
     }
     c.num("timeout_ms", id.config.timeout_ms.into());

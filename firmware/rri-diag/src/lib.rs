@@ -101,7 +101,10 @@ pub fn respond(out: &mut dyn Out, request: http::Request, id: &Identity, s: &Sta
 /// the message was dropped: never before an answer), the service reads
 /// it.
 pub struct LastBad {
-    cell: Mutex<Cell<Option<BadMessage>>>,
+    /// Whether one was kept, and the last one (`(false, ` all zero
+    /// bytes`)` at first rather than `None`: so that the `static` starts
+    /// in `.bss` and costs no flash).
+    cell: Mutex<Cell<(bool, BadMessage)>>,
 }
 
 impl Default for LastBad {
@@ -114,7 +117,7 @@ impl LastBad {
     /// None yet (`const`, for a `static`).
     pub const fn new() -> Self {
         LastBad {
-            cell: Mutex::new(Cell::new(None)),
+            cell: Mutex::new(Cell::new((false, BadMessage::ZERO))),
         }
     }
 
@@ -132,12 +135,13 @@ impl LastBad {
             len: u32::try_from(message.len()).unwrap_or(u32::MAX),
             head,
         };
-        critical_section::with(|cs| self.cell.borrow(cs).set(Some(bad)));
+        critical_section::with(|cs| self.cell.borrow(cs).set((true, bad)));
     }
 
     /// A copy of the last one.
     pub fn get(&self) -> Option<BadMessage> {
-        critical_section::with(|cs| self.cell.borrow(cs).get())
+        let (kept, bad) = critical_section::with(|cs| self.cell.borrow(cs).get());
+        kept.then_some(bad)
     }
 }
 

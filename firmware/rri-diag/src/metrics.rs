@@ -48,7 +48,7 @@ fn sample(o: &mut dyn Out, name: &str, label: Option<(&str, &str)>, value: V) {
     o.str(" ");
     match value {
         V::N(n) => o.u64(n),
-        V::Seconds(us) => o.fixed(us, 6),
+        V::Seconds(us) => o.seconds(us),
     }
     o.str("\n");
 }
@@ -93,20 +93,23 @@ fn info(o: &mut dyn Out, id: &Identity, s: &Status) {
         "Since start.",
         V::Seconds(s.now.as_micros()),
     );
-    single(
-        o,
-        "rri_boots",
-        "gauge",
-        "Starts since power-on.",
-        V::N(s.reset.boots.into()),
-    );
-    family(o, "rri_last_reset", "gauge", "Cause of the last start.");
-    sample(
-        o,
-        "rri_last_reset",
-        Some(("cause", s.reset.cause.name())),
-        V::N(1),
-    );
+    // The host sensor has no resets: neither family.
+    if let Some(reset) = s.reset {
+        single(
+            o,
+            "rri_boots",
+            "gauge",
+            "Starts since power-on.",
+            V::N(reset.boots.into()),
+        );
+        family(o, "rri_last_reset", "gauge", "Cause of the last start.");
+        sample(
+            o,
+            "rri_last_reset",
+            Some(("cause", reset.cause.name())),
+            V::N(1),
+        );
+    }
 }
 
 /// The S2 state, the error code, the last message's age, the link.
@@ -281,7 +284,7 @@ fn latency(o: &mut dyn Out, h: &Histogram) {
         o.str(NAME);
         o.str("_bucket{le=\"");
         match Histogram::bucket_limit_us(i) {
-            Some(limit) => o.fixed(u64::from(limit) - 1, 6),
+            Some(limit) => o.seconds(u64::from(limit) - 1),
             None => o.str("+Inf"),
         }
         o.str("\"} ");
@@ -290,7 +293,7 @@ fn latency(o: &mut dyn Out, h: &Histogram) {
     }
     o.str(NAME);
     o.str("_sum ");
-    o.fixed(h.total_us, 6);
+    o.seconds(h.total_us);
     o.str("\n");
     o.str(NAME);
     o.str("_count ");

@@ -57,27 +57,20 @@ impl dyn Out + '_ {
         self.u64(v.into());
     }
 
-    /// Appends `v / 10^decimals` with exactly `decimals` decimals (`1234`,
-    /// 3 → `1.234`): microseconds as milliseconds or seconds, without
-    /// float formatting.
+    /// Appends `us` microseconds as seconds with six decimals (`5` →
+    /// `0.000005`), without float formatting: the whole seconds, then the
+    /// remainder plus 10^6 with its leading `1` turned into the point.
     #[inline(never)]
-    pub fn fixed(&mut self, v: u64, decimals: u32) {
-        let scale = 10u64.saturating_pow(decimals);
-        self.u64(v / scale);
-        if decimals > 0 {
-            self.str(".");
-            let frac = v % scale;
-            let mut digits = [b'0'; 19];
-            let n = (decimals as usize).min(digits.len());
-            let mut f = frac;
-            for i in (0..n).rev() {
-                if let Some(d) = digits.get_mut(i) {
-                    *d = b'0' + (f % 10) as u8;
-                }
-                f /= 10;
-            }
-            self.bytes(digits.get(..n).unwrap_or(&[]));
+    pub fn seconds(&mut self, us: u64) {
+        self.u64(us / 1_000_000);
+        let mut w = [0u8; 7];
+        let mut frac = us % 1_000_000 + 1_000_000;
+        for d in w.iter_mut().rev() {
+            *d = b'0' + (frac % 10) as u8;
+            frac /= 10;
         }
+        w[0] = b'.';
+        self.bytes(&w);
     }
 
     /// Appends an IPv4 address, `a.b.c.d`.
@@ -161,7 +154,7 @@ fn hex(b: u8) -> [u8; 2] {
 
 /// Writes `bytes` with the runs that need no escaping in one piece each.
 #[inline(never)]
-fn escape(out: &mut dyn Out, bytes: &[u8], rule: impl Fn(u8) -> Option<Piece>) {
+fn escape(out: &mut dyn Out, bytes: &[u8], rule: fn(u8) -> Option<Piece>) {
     let mut start = 0;
     for (i, &b) in bytes.iter().enumerate() {
         let Some(piece) = rule(b) else { continue };
@@ -268,9 +261,10 @@ mod tests {
     fn numbers_in_decimal_and_fixed_point() {
         assert_eq!(text(|o| o.u64(0)), "0");
         assert_eq!(text(|o| o.u64(u64::MAX)), "18446744073709551615");
-        assert_eq!(text(|o| o.fixed(1234, 3)), "1.234");
-        assert_eq!(text(|o| o.fixed(5, 6)), "0.000005");
-        assert_eq!(text(|o| o.fixed(7, 0)), "7");
+        assert_eq!(text(|o| o.seconds(1_234_000)), "1.234000");
+        assert_eq!(text(|o| o.seconds(5)), "0.000005");
+        assert_eq!(text(|o| o.seconds(0)), "0.000000");
+        assert_eq!(text(|o| o.seconds(u64::MAX)), "18446744073709.551615");
         assert_eq!(text(|o| o.ipv4([10, 49, 65, 74])), "10.49.65.74");
         assert_eq!(
             text(|o| o.mac([2, 0, 0x52, 0x52, 0x49, 0xab])),

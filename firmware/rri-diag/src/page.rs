@@ -24,4 +24,4 @@
 pub const PAGE_GZ: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/page.html.gz"));
 
 /// The page for a client that takes no gzip.
-pub const NO_GZIP: &str = "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>RRI sensor</title></head><body><p>This status page is sent gzip-compressed, and this client did not accept gzip. Open it in a browser, or ask with <code>curl --compressed</code>. The same data: <a href=\"/status.json\">/status.json</a>; for Prometheus: <a href=\"/metrics\">/metrics</a>.</p></body></html>\n";
+pub const NO_GZIP: &str = "<!DOCTYPE html><title>RRI sensor</title><p>This page is sent gzip-compressed: open it in a browser, or use <code>curl --compressed</code>. The data: <a href=\"/status.json\">/status.json</a>, <a href=\"/metrics\">/metrics</a>.\n";

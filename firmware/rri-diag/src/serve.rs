@@ -70,7 +70,7 @@ type Cs = CriticalSectionRawMutex;
 
 /// One connection slot: what the two halves share.
 pub struct Slot {
-    inbound: Pipe<Cs, 64>,
+    inbound: Pipe<Cs, CHUNK>,
     outbound: Pipe<Cs, CHUNK>,
     /// A connection was accepted (network half → service).
     opened: Signal<Cs, ()>,

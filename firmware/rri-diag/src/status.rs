@@ -78,34 +78,9 @@ impl LatencySource {
     }
 }
 
-/// The network link as the board sees it.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct LinkStatus {
-    /// Up (carrier and, on the NUCLEO boards, 100 Mbit/s full duplex).
-    pub up: bool,
-    /// Negotiated speed in Mbit/s, where the board knows it.
-    pub speed_mbps: Option<u16>,
-    /// Full duplex, where the board knows it.
-    pub full_duplex: Option<bool>,
-}
-
-/// The network chip's own receive counters (`hal_board::NicCounters`),
-/// as the diagnostics show them.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct NicFigures {
-    /// Frames the driver took from the chip.
-    pub rx_frames: u32,
-    /// Frames the chip dropped, by its own count (LAN9118 `RX_DROP`;
-    /// STM32 the Ethernet DMA's and MTL's missed-frame counters).
-    pub rx_dropped: u32,
-    /// Times the receive status FIFO was full (LAN9118 only).
-    pub status_full: u32,
-    /// The most bytes the receive FIFO held (LAN9118 only).
-    pub fifo_max: u32,
-    /// Whether `rx_frames`, `status_full` and `fifo_max` are read (not on
-    /// the STM32 boards: only `rx_dropped` is).
-    pub fifo: bool,
-}
+/// The network link and the chip's own receive counters: the board's
+/// types, as the board reads them (the host sensor fills them in too).
+pub use hal_board::{LinkInfo, NicCounters};
 
 /// The stack's painted high-water mark (`hal_board::stack`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -151,6 +126,16 @@ pub struct BadMessage {
 }
 
 impl BadMessage {
+    /// All zero: what [`super::LastBad`] holds before the first.
+    pub const ZERO: BadMessage = BadMessage {
+        at: Instant(0),
+        from: Endpoint::new([0; 4], 0),
+        kind: DecodeErrorKind::TooLong,
+        offset: 0,
+        len: 0,
+        head: [0; BAD_MESSAGE_BYTES],
+    };
+
     /// The bytes kept.
     pub fn bytes(&self) -> &[u8] {
         let n = (self.len as usize).min(BAD_MESSAGE_BYTES);
@@ -158,94 +143,12 @@ impl BadMessage {
     }
 }
 
-/// Why the device last started.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ResetCause {
-    /// Power was applied (or nothing says otherwise).
-    PowerOn,
-    /// The reset pin (the NUCLEO's button, or the debug probe).
-    Pin,
-    /// The supply dipped.
-    BrownOut,
-    /// The watchdog: the cycle stopped turning.
-    Watchdog,
-    /// Software asked for it.
-    Software,
-    /// A HardFault: the handler logged it and reset.
-    HardFault,
-    /// A panic: the handler logged it and reset.
-    Panic,
-    /// The host sensor has no resets.
-    NotApplicable,
-}
-
-impl ResetCause {
-    /// As the page and the JSON name it.
-    pub const fn name(self) -> &'static str {
-        match self {
-            ResetCause::PowerOn => "power-on",
-            ResetCause::Pin => "reset pin",
-            ResetCause::BrownOut => "brown-out",
-            ResetCause::Watchdog => "watchdog",
-            ResetCause::Software => "software",
-            ResetCause::HardFault => "HardFault",
-            ResetCause::Panic => "panic",
-            ResetCause::NotApplicable => "n/a",
-        }
-    }
-}
-
-/// Longest panic file name kept across a reset.
-pub const PANIC_FILE_BYTES: usize = hal_board::reset::FILE_BYTES;
-
-/// Why the device last started and, for a crash, where it happened: kept
-/// across the reset in RAM that start-up does not clear.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ResetInfo {
-    /// The cause.
-    pub cause: ResetCause,
-    /// A HardFault's program counter (and link register).
-    pub pc: Option<(u32, u32)>,
-    /// A panic's file (its last [`PANIC_FILE_BYTES`] bytes) and line.
-    pub panic: Option<([u8; PANIC_FILE_BYTES], u8, u32)>,
-    /// Starts since power-on (1 for the first).
-    pub boots: u32,
-}
-
-impl ResetInfo {
-    /// What the board found at start-up (`hal_board::reset`).
-    pub fn from_board(r: hal_board::reset::Report) -> Self {
-        use hal_board::reset::Cause;
-        ResetInfo {
-            cause: match r.cause {
-                Cause::PowerOn => ResetCause::PowerOn,
-                Cause::Pin => ResetCause::Pin,
-                Cause::BrownOut => ResetCause::BrownOut,
-                Cause::Watchdog => ResetCause::Watchdog,
-                Cause::Software => ResetCause::Software,
-                Cause::HardFault => ResetCause::HardFault,
-                Cause::Panic => ResetCause::Panic,
-            },
-            pc: r.pc,
-            panic: r.panic,
-            boots: r.boots,
-        }
-    }
-
-    /// The host sensor's: no resets.
-    pub const HOST: ResetInfo = ResetInfo {
-        cause: ResetCause::NotApplicable,
-        pc: None,
-        panic: None,
-        boots: 1,
-    };
-
-    /// The panic's file name, if it was a panic.
-    pub fn panic_file(&self) -> Option<(&[u8], u32)> {
-        let (file, len, line) = self.panic.as_ref()?;
-        Some((file.get(..usize::from(*len)).unwrap_or(&[]), *line))
-    }
-}
+/// Why the device last started and, for a crash, where it happened
+/// (kept across the reset in RAM that start-up does not clear): the
+/// board's own report (`hal_board::reset`), named for what it is here.
+pub use hal_board::reset::{
+    Cause as ResetCause, Report as ResetInfo, FILE_BYTES as PANIC_FILE_BYTES,
+};
 
 /// The reply latency, with where it was measured and when its maximum
 /// happened.
@@ -266,9 +169,9 @@ pub struct Status {
     /// Device time of the copy (the uptime).
     pub now: Instant,
     /// The link.
-    pub link: LinkStatus,
+    pub link: LinkInfo,
     /// The network chip's counters, where the board reads them.
-    pub nic: Option<NicFigures>,
+    pub nic: Option<NicCounters>,
     /// The stack's high-water mark, where the board paints it.
     pub stack: Option<StackFigures>,
     /// The reply latency.
@@ -277,6 +180,7 @@ pub struct Status {
     pub bad: Option<BadMessage>,
     /// The last events.
     pub events: EventLog,
-    /// Why the device last started.
-    pub reset: ResetInfo,
+    /// Why the device last started (`None`: the host sensor, which has no
+    /// resets).
+    pub reset: Option<ResetInfo>,
 }

@@ -107,14 +107,14 @@ fn status() -> Status {
     Status {
         snapshot,
         now: Instant(2_000_000),
-        link: LinkStatus {
+        link: LinkInfo {
             up: true,
             speed_mbps: Some(100),
             full_duplex: Some(true),
         },
-        nic: Some(NicFigures {
+        nic: Some(NicCounters {
             rx_dropped: 3,
-            ..NicFigures::default()
+            ..NicCounters::default()
         }),
         stack: Some(StackFigures {
             boot: 27_000,
@@ -127,12 +127,12 @@ fn status() -> Status {
         },
         bad: last_bad.get(),
         events,
-        reset: ResetInfo {
+        reset: Some(ResetInfo {
             cause: ResetCause::Panic,
             pc: None,
             panic: Some((file, 9, 42)),
             boots: 3,
-        },
+        }),
     }
 }
 
@@ -202,7 +202,41 @@ fn status_json_is_json_and_every_hostile_string_comes_back_exactly() {
     assert_eq!(bad["length"], 256);
     assert_eq!(v["events"][0]["event"], "state");
     assert_eq!(v["events"][1]["peer"], "10.49.65.1:40000");
-    assert_eq!(v["events"][2]["text"], "started (last reset: watchdog)");
+    assert_eq!(
+        (&v["events"][2]["event"], &v["events"][2]["cause"]),
+        (&"started".into(), &"watchdog".into())
+    );
+    assert_eq!(v["events"][0]["state"], "ERROR");
+    assert_eq!(
+        v["events"][0]["error_code"],
+        u64::from(ErrorCode::Communication.code())
+    );
+}
+
+/// The page words what the JSON names: every decode error kind's text
+/// (the firmware's own, `DecodeErrorKind::text`) is in the page's table
+/// under the kind's JSON name, and every event name has its wording.
+#[test]
+fn the_page_words_every_decode_error_and_event_the_json_names() {
+    let page = include_str!("page.html");
+    for kind in DecodeErrorKind::ALL {
+        let entry = format!("{}:\"{}\"", kind.name(), kind.text());
+        assert!(page.contains(&entry), "page.html lacks {entry}");
+    }
+    for name in [
+        "started",
+        "state",
+        "timeout",
+        "max_lost",
+        "link_up",
+        "link_down",
+        "peer",
+    ] {
+        assert!(
+            page.contains(&format!("{name}:")),
+            "page.html lacks the event {name}"
+        );
+    }
 }
 
 #[test]

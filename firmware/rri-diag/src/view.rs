@@ -1,5 +1,5 @@
-//! How the three forms say the same things: endpoints, protocols, periods,
-//! durations and events, written once.
+//! How the forms say the same things: endpoints, protocols, periods and
+//! event names, written once.
 
 use super::events::EventKind;
 use super::out::Out;
@@ -53,43 +53,5 @@ pub const fn event_name(k: &EventKind) -> &'static str {
         EventKind::LinkUp(..) => "link_up",
         EventKind::LinkDown => "link_down",
         EventKind::Peer(_) => "peer",
-    }
-}
-
-/// What an event says, for people (the caller escapes it for its form).
-pub fn event_text(o: &mut dyn Out, k: &EventKind) {
-    match *k {
-        EventKind::Started(cause) => {
-            o.str("started (last reset: ");
-            o.str(cause.name());
-            o.str(")");
-        }
-        EventKind::State(state, error) => {
-            o.str("state ");
-            o.str(state.name());
-            if let Some(e) = error {
-                o.str(" ");
-                o.u32(e.code());
-            }
-        }
-        EventKind::TimeOut => o.str("TimeOut: no robot message in time (S1)"),
-        EventKind::MaxLost => o.str("MaxLost: too many robot messages lost in a row (S1)"),
-        EventKind::LinkUp(speed, duplex) => {
-            o.str("link up");
-            if let Some(mbps) = speed {
-                o.str(", ");
-                o.u32(mbps.into());
-                o.str(" Mbit/s");
-            }
-            if let Some(full) = duplex {
-                o.str(if full { " full duplex" } else { " half duplex" });
-            }
-        }
-        EventKind::LinkDown => o.str("link down"),
-        EventKind::Peer(p) => {
-            o.str("controller ");
-            endpoint(o, p);
-            o.str(" answered from now on (S4)");
-        }
     }
 }

@@ -15,9 +15,7 @@
 
 use crate::{board, LINK, PUBLISHED};
 use rri_diag::events::{EventKind, Events};
-use rri_diag::status::{
-    Identity, LatencySource, LinkStatus, NicFigures, ResetInfo, StackFigures, Status,
-};
+use rri_diag::status::{Identity, LatencySource, ResetInfo, StackFigures, Status};
 use rri_diag::LastBad;
 use rri_firmware::engine::Instant;
 use rri_firmware::snapshot::Snapshot;
@@ -27,90 +25,40 @@ pub static LAST_BAD: LastBad = LastBad::new();
 /// What happened (housekeeping writes it).
 pub static EVENTS: Events = Events::new();
 
-/// Why the board started, set once at start-up.
-static RESET: critical_section::Mutex<core::cell::Cell<Option<ResetInfo>>> =
-    critical_section::Mutex::new(core::cell::Cell::new(None));
+/// Why the board started, set once at start-up (before any reader).
+static RESET: critical_section::Mutex<core::cell::Cell<ResetInfo>> =
+    critical_section::Mutex::new(core::cell::Cell::new(ResetInfo::UNKNOWN));
 
 /// Device time now.
 pub fn now() -> Instant {
     Instant(embassy_time::Instant::now().as_micros())
 }
 
-/// At start-up: keeps why the board started and logs it as the first
-/// event.
+/// At start-up: keeps why the board started, as the first event.
 pub fn started(report: hal_board::reset::Report) {
-    let info = ResetInfo::from_board(report);
-    critical_section::with(|cs| RESET.borrow(cs).set(Some(info)));
+    let info = report;
+    critical_section::with(|cs| RESET.borrow(cs).set(info));
     EVENTS.push(now(), EventKind::Started(info.cause));
-    match info.pc {
-        Some((pc, lr)) => defmt::warn!(
-            "last reset: {=str} at PC {=u32:#010x} LR {=u32:#010x} (start {=u32})",
-            info.cause.name(),
-            pc,
-            lr,
-            info.boots
-        ),
-        None => defmt::info!(
-            "last reset: {=str} (start {=u32})",
-            info.cause.name(),
-            info.boots
-        ),
-    }
 }
 
 /// Housekeeping, after each look at the cycle: the events between the
 /// last snapshot and this one, and the link's changes.
 pub fn note(last: &Snapshot, now_snap: &Snapshot, link: &mut hal_board::LinkInfo) {
     let at = now();
-    if now_snap.state != last.state || now_snap.error != last.error {
-        EVENTS.push(at, EventKind::State(now_snap.state, now_snap.error));
-    }
-    if now_snap.stats.timeouts > last.stats.timeouts {
-        EVENTS.push(at, EventKind::TimeOut);
-    }
-    if now_snap.stats.max_lost_exceeded > last.stats.max_lost_exceeded {
-        EVENTS.push(at, EventKind::MaxLost);
-    }
-    if let Some(peer) = now_snap.peer {
-        if now_snap.peer != last.peer {
-            EVENTS.push(at, EventKind::Peer(peer));
-        }
-    }
-    let seen = board::link();
-    if seen != *link {
-        EVENTS.push(
-            at,
-            if seen.up {
-                EventKind::LinkUp(seen.speed_mbps, seen.full_duplex)
-            } else {
-                EventKind::LinkDown
-            },
-        );
-        *link = seen;
-    }
+    EVENTS.between(at, last, now_snap);
+    EVENTS.link(at, board::link(), link);
 }
 
 /// Everything that moves, as of now (the service copies it once per
 /// response).
 pub fn status(out: &mut Option<Status>) {
-    let link = board::link();
     let stack = hal_board::stack::high_water();
     let snapshot = PUBLISHED.latest();
     *out = Some(Status {
         snapshot,
         now: now(),
-        link: LinkStatus {
-            up: link.up,
-            speed_mbps: link.speed_mbps,
-            full_duplex: link.full_duplex,
-        },
-        nic: board::nic_counters().map(|n| NicFigures {
-            rx_frames: n.rx_frames,
-            rx_dropped: n.rx_dropped,
-            status_full: n.status_full,
-            fifo_max: n.fifo_max,
-            fifo: n.fifo,
-        }),
+        link: board::link(),
+        nic: board::nic_counters(),
         stack: Some(StackFigures {
             boot: stack.boot as u32,
             running: stack.running as u32,
@@ -122,7 +70,7 @@ pub fn status(out: &mut Option<Status>) {
         },
         bad: LAST_BAD.get(),
         events: EVENTS.copy(),
-        reset: critical_section::with(|cs| RESET.borrow(cs).get()).unwrap_or(ResetInfo::HOST),
+        reset: Some(critical_section::with(|cs| RESET.borrow(cs).get())),
     });
 }
 

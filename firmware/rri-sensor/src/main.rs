@@ -55,6 +55,7 @@ macro_rules! spawn {
     };
 }
 
+#[cfg(rri_http)]
 mod diagnostics;
 
 /// The device's address: Description.xml's `Network Address`.
@@ -142,6 +143,8 @@ fn main() -> ! {
             c.baseline
         );
     }
+    log_reset(&b.reset);
+    #[cfg(rri_http)]
     diagnostics::started(b.reset);
     let mac = match embassy_net_driver::Driver::hardware_address(&b.net) {
         embassy_net_driver::HardwareAddress::Ethernet(mac) => Some(mac),
@@ -192,6 +195,22 @@ fn main() -> ! {
             s.spawn(token);
         }
     })
+}
+
+/// Logs why the board started (the crash record `hal_board::reset` kept
+/// across the reset: a HardFault's PC, a panic's file and line).
+fn log_reset(r: &hal_board::reset::Report) {
+    let cause = hal_board::reset::Cause::name(r.cause);
+    match r.pc {
+        Some((pc, lr)) => defmt::warn!(
+            "last reset: {=str} at PC {=u32:#010x} LR {=u32:#010x} (start {=u32})",
+            cause,
+            pc,
+            lr,
+            r.boots
+        ),
+        None => defmt::info!("last reset: {=str} (start {=u32})", cause, r.boots),
+    }
 }
 
 /// Starts the urgent executor with the network task on it. A function of
@@ -418,7 +437,10 @@ impl Monitor<RobotProperties, DeviceProperties> for Publisher {
         if let (Outcome::Dropped(DropReason::Decode(_)), Some(error)) =
             (outcome, engine.last_decode_error())
         {
+            #[cfg(rri_http)]
             diagnostics::LAST_BAD.record(diagnostics::now(), from, error, message);
+            #[cfg(not(rri_http))]
+            let _ = (from, error, message);
         }
         self.publish(engine);
     }
@@ -452,11 +474,13 @@ async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Watchdog) -> !
     let mut last = Snapshot::default();
     let mut tick: u32 = 0;
     let mut stack_used = 0;
+    #[cfg(rri_http)]
     let mut link = hal_board::LinkInfo::default();
     loop {
         ticker.next().await;
         tick = tick.wrapping_add(1);
         let now = PUBLISHED.latest();
+        #[cfg(rri_http)]
         diagnostics::note(&last, &now, &mut link);
         // A TCP cycle waits in accept without turning; it has nothing to
         // hang on there.

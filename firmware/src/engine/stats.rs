@@ -14,7 +14,8 @@ pub struct Histogram {
     pub buckets: [u32; Histogram::BUCKETS],
     /// Latencies recorded.
     pub count: u32,
-    /// Shortest, µs; `u32::MAX` while `count` is 0.
+    /// Shortest, µs; 0 while `count` is 0 (an empty histogram is all zero
+    /// bytes, so the `static`s that hold one start in `.bss`, not in flash).
     pub min_us: u32,
     /// Longest, µs.
     pub max_us: u32,
@@ -36,7 +37,7 @@ impl Histogram {
     pub const EMPTY: Histogram = Histogram {
         buckets: [0; Histogram::BUCKETS],
         count: 0,
-        min_us: u32::MAX,
+        min_us: 0,
         max_us: 0,
         total_us: 0,
         max_at_us: 0,
@@ -54,8 +55,12 @@ impl Histogram {
         if let Some(b) = self.buckets.get_mut(bucket) {
             *b = b.saturating_add(1);
         }
+        self.min_us = if self.count == 0 {
+            us
+        } else {
+            self.min_us.min(us)
+        };
         self.count = self.count.saturating_add(1);
-        self.min_us = self.min_us.min(us);
         self.max_us = self.max_us.max(us);
         self.total_us = self.total_us.saturating_add(micros);
     }

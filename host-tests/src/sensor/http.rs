@@ -9,9 +9,9 @@
 //! [`CONNECTIONS`] at once; more are answered 503), the request head
 //! [`REQUEST_TIMEOUT`] to arrive (408), one request per connection.
 
-use rri_diag::events::{EventKind, Events};
+use rri_diag::events::Events;
 use rri_diag::http::{self, Parsed, Parser};
-use rri_diag::status::{Latency, LatencySource, LinkStatus, ResetInfo};
+use rri_diag::status::{Latency, LatencySource, LinkInfo};
 use rri_diag::{Identity, LastBad, Out, Status};
 use rri_firmware::engine::Instant;
 use rri_firmware::snapshot::{Published, Snapshot};
@@ -40,18 +40,7 @@ impl HostDiag {
     /// since `last` as events.
     pub fn turn(&self, last: &Snapshot, now: &Snapshot, at: Instant) {
         self.published.publish(now);
-        if now.state != last.state || now.error != last.error {
-            self.events.push(at, EventKind::State(now.state, now.error));
-        }
-        if now.stats.timeouts > last.stats.timeouts {
-            self.events.push(at, EventKind::TimeOut);
-        }
-        if now.stats.max_lost_exceeded > last.stats.max_lost_exceeded {
-            self.events.push(at, EventKind::MaxLost);
-        }
-        if let Some(peer) = now.peer.filter(|_| now.peer != last.peer) {
-            self.events.push(at, EventKind::Peer(peer));
-        }
+        self.events.between(at, last, now);
     }
 
     fn status(&self, now: Instant) -> Status {
@@ -59,7 +48,7 @@ impl HostDiag {
         Status {
             snapshot,
             now,
-            link: LinkStatus {
+            link: LinkInfo {
                 up: true,
                 speed_mbps: None,
                 full_duplex: None,
@@ -72,7 +61,7 @@ impl HostDiag {
             },
             bad: self.last_bad.get(),
             events: self.events.copy(),
-            reset: ResetInfo::HOST,
+            reset: None,
         }
     }
 }
