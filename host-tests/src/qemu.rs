@@ -201,7 +201,7 @@ fn slirp_network(boot: &Boot) -> Result<String, String> {
         None => String::new(),
     };
     Ok(format!(
-        "user,model=lan9118,net={a}.{b}.{c}.0/24,host={a}.{b}.{c}.{host},restrict=off,hostfwd={proto}:127.0.0.1:{hp}-{a}.{b}.{c}.{d}:{port}{http}",
+        "user,id=n0,model=lan9118,net={a}.{b}.{c}.0/24,host={a}.{b}.{c}.{host},restrict=off,hostfwd={proto}:127.0.0.1:{hp}-{a}.{b}.{c}.{d}:{port}{http}",
         hp = boot.host_port,
         port = boot.device.channel.port
     ))
@@ -235,6 +235,12 @@ impl Qemu {
         .args(["-nic", nic])
         .arg("-kernel")
         .arg(&boot.elf);
+        if let Ok(dump) = std::env::var("RRI_QEMU_DUMP") {
+            cmd.args([
+                "-object",
+                &format!("filter-dump,id=fd0,netdev=n0,file={dump}"),
+            ]);
+        }
         if let Some(shift) = boot.icount_shift {
             cmd.args(["-icount", &format!("shift={shift}")]);
         }

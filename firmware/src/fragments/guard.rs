@@ -34,11 +34,29 @@
 //! longest).
 
 use super::{Channel, Link, Reassembler};
+use core::future::Future;
 use core::task::Context;
 use embassy_net_driver::{Capabilities, Driver, HardwareAddress, LinkState};
 
 fn now_us() -> u64 {
     embassy_time::Instant::now().as_micros()
+}
+
+/// A frame was held back ([`Link::may_receive`] / [`Link::may_transmit`]):
+/// the runner (whose context `cx` is) is woken when the hold ends at the
+/// latest, not only when the cycle ends its turn, which it may never do
+/// for this message (see [`Link::hold_until_us`]).
+fn wake_at_hold_end(link: &Link, cx: &mut Context) {
+    if let Some(until) = link.hold_until_us() {
+        let timer = core::pin::pin!(embassy_time::Timer::at(embassy_time::Instant::from_micros(
+            until
+        )));
+        // Pending registers the runner's waker for `until`; Ready: the
+        // bound has passed, and the next poll of the runner lifts it.
+        if timer.poll(cx).is_ready() {
+            cx.waker().wake_by_ref();
+        }
+    }
 }
 
 /// Frames handed to the stack per poll of the network runner at most (a
@@ -149,6 +167,7 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
         // us, the egress that sends the reply ends the wait).
         let now = now_us();
         if !link.may_receive(now, cx.waker()) {
+            wake_at_hold_end(link, cx);
             return None;
         }
         // Stale sets go at every poll, not only when the next fragment
@@ -193,6 +212,7 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
         // The cycle works on a robot message: nothing leaves in front of
         // its reply (`Link::may_transmit`; the cycle wakes us).
         if !link.may_transmit(now_us(), cx.waker()) {
+            wake_at_hold_end(link, cx);
             return None;
         }
         Some(GuardTx {

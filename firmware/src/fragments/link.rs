@@ -145,6 +145,23 @@ impl Link {
         })
     }
 
+    /// When the hold in force ends at the latest ([`HOLD_MAX_US`] after
+    /// the message came in), or `None` when nothing is held. The guard
+    /// sets a timer for it whenever it holds a frame back: the cycle may
+    /// never end a turn for this message (a message on a connection it is
+    /// not reading yet: M10's standby, while it closes the old one), and
+    /// the runner, asleep, would otherwise not look again until its own
+    /// next timer (a second, in a TCP reconnection: the hold's bound must
+    /// wake it).
+    pub fn hold_until_us(&self) -> Option<u64> {
+        critical_section::with(|cs| match self.hold.borrow_ref(cs).0 {
+            Hold::Idle => None,
+            Hold::Awaiting { since_us } | Hold::Composed { since_us, .. } => {
+                Some(since_us.saturating_add(HOLD_MAX_US))
+            }
+        })
+    }
+
     /// Whether the hold (`holds`, which may note that it held) keeps a
     /// frame back now; registers `waker` for the cycle's end of turn.
     fn may(&self, now_us: u64, waker: &core::task::Waker, holds: fn(&mut Hold) -> bool) -> bool {
@@ -264,7 +281,13 @@ mod tests {
     fn a_hold_never_outlasts_its_bound() {
         let link = Link::new();
         let (_, w) = waker();
+        assert_eq!(link.hold_until_us(), None, "nothing held");
         link.message_in(1_000);
+        assert_eq!(
+            link.hold_until_us(),
+            Some(1_000 + HOLD_MAX_US),
+            "the guard wakes the runner then, whether the cycle ends its turn or not"
+        );
         assert!(!link.may_transmit(1_000 + HOLD_MAX_US - 1, &w));
         assert!(
             link.may_transmit(1_000 + HOLD_MAX_US, &w),
