@@ -128,7 +128,11 @@ impl<T: embassy_net_driver::RxToken, const BUF: usize> embassy_net_driver::RxTok
         let now = now_us();
         let mut tcp = false;
         let r = inner.consume(|frame| {
-            tcp = carries(frame, channel.port, Side::To);
+            // A segment for the cycle: from the controller as the cycle
+            // knows it, so that data for M10's standby connection (a new
+            // port) holds nothing: the cycle does not read it yet.
+            tcp = channel_data(frame, channel.port, Side::To)
+                .is_some_and(|(ip, port)| controller.sent(ip, port));
             reassembler.pass(frame, now, channel, controller, f)
         });
         if reassembler.take_changed() {
@@ -166,8 +170,10 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
         // nothing comes in meanwhile (`Link::may_receive`; the cycle wakes
         // us, the egress that sends the reply ends the wait).
         let now = now_us();
+        // No timer here: every message the hold is for reaches the cycle,
+        // which ends the hold when done with it (a timer per message cost
+        // the hostile worst case 1,300 instructions).
         if !link.may_receive(now, cx.waker()) {
-            wake_at_hold_end(link, cx);
             return None;
         }
         // Stale sets go at every poll, not only when the next fragment
@@ -247,7 +253,7 @@ impl<T: embassy_net_driver::TxToken> embassy_net_driver::TxToken for GuardTx<'_,
         let GuardTx { inner, link, port } = self;
         inner.consume(len, |frame| {
             let r = f(frame);
-            if carries(frame, port, Side::From) {
+            if channel_data(frame, port, Side::From).is_some() {
                 link.reply_out(now_us());
             }
             r
@@ -267,31 +273,34 @@ enum Side {
 
 /// Whether an Ethernet `frame` carries channel data: IPv4, a first (or
 /// only) fragment, TCP with a payload or (`Side::From`) UDP, with the
-/// channel `port` on `side`. Reads a few header bytes, checked.
-fn carries(frame: &[u8], port: u16, side: Side) -> bool {
+/// channel `port` on `side`; if so, the other end's address and port.
+/// Reads a few header bytes, checked.
+fn channel_data(frame: &[u8], port: u16, side: Side) -> Option<([u8; 4], u16)> {
     let be = |i: usize| -> Option<u16> {
         Some(u16::from_be_bytes([*frame.get(i)?, *frame.get(i + 1)?]))
     };
-    let check = || -> Option<bool> {
-        if be(12)? != 0x0800 || be(20)? & 0x1fff != 0 {
-            return Some(false);
-        }
-        let ihl = usize::from(frame.get(14)? & 0x0f) * 4;
-        let l4 = 14 + ihl;
-        let ports = (be(l4)?, be(l4 + 2)?);
-        let on_side = match side {
-            Side::To => ports.1 == port,
-            Side::From => ports.0 == port,
-        };
-        Some(match *frame.get(23)? {
-            17 => side == Side::From && on_side,
-            6 => {
-                let total = usize::from(be(16)?);
-                let header = ihl + usize::from(frame.get(l4 + 12)? >> 4) * 4;
-                on_side && total > header
-            }
-            _ => false,
-        })
+    // The protocol first: on the way in only TCP is ours to tell (the
+    // reassembler tells UDP), and every frame in comes through here.
+    let tcp = match *frame.get(23)? {
+        6 => true,
+        17 if side == Side::From => false,
+        _ => return None,
     };
-    check().unwrap_or(false)
+    if be(12)? != 0x0800 || be(20)? & 0x1fff != 0 {
+        return None;
+    }
+    let ihl = usize::from(frame.get(14)? & 0x0f) * 4;
+    let l4 = 14 + ihl;
+    let (src, dst) = (be(l4)?, be(l4 + 2)?);
+    let (ours, other, ip_at) = match side {
+        Side::To => (dst, src, 26),
+        Side::From => (src, dst, 30),
+    };
+    let data = !tcp || {
+        let total = usize::from(be(16)?);
+        let header = ihl + usize::from(frame.get(l4 + 12)? >> 4) * 4;
+        total > header
+    };
+    let ip: [u8; 4] = frame.get(ip_at..ip_at + 4)?.try_into().ok()?;
+    (data && ours == port).then_some((ip, other))
 }

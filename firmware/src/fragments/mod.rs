@@ -110,7 +110,8 @@ impl Controller {
         }
     }
 
-    /// A datagram from `ip`:`port` is the controller's.
+    /// A datagram (or segment) from `ip`:`port` is the controller's (what
+    /// is not known yet matches).
     pub fn sent(&self, ip: [u8; 4], port: u16) -> bool {
         self.from_address(ip) && self.port.is_none_or(|p| p == port)
     }
