@@ -21,6 +21,7 @@ use memnet::{
 use rri_diag::serve::{self, Renderer, ServiceHalf, ServiceStats, Slot, SocketHalf, SLOTS, WINDOW};
 use rri_diag::status::{Latency, LatencySource, LinkInfo};
 use rri_diag::{Identity, Status};
+use rri_firmware::fragments::Link;
 use rri_firmware::snapshot::Snapshot;
 use smoltcp::wire::Ipv4Address;
 use std::pin::pin;
@@ -101,6 +102,8 @@ where
     let (robot, mut client_runner) =
         embassy_net::new(client_driver, net_config(ROBOT_IP), client_res, 2);
     let stats: &'static ServiceStats = Box::leak(Box::new(ServiceStats::new()));
+    // No cycle here: its link never holds.
+    let cycle: &'static Link = Box::leak(Box::new(Link::new()));
     let slots: &'static [Slot; SLOTS] = Box::leak(Box::new([const { Slot::new() }; SLOTS]));
     let window: &'static mut [u8; WINDOW] = Box::leak(Box::new([0; WINDOW]));
     let renderer: &'static Mutex<CriticalSectionRawMutex, Renderer> =
@@ -119,7 +122,7 @@ where
                     PORT,
                     slot,
                     socket_half,
-                    stats,
+                    serve::Guest { stats, cycle },
                     rx,
                     tx,
                 )),

@@ -40,6 +40,7 @@ use embassy_sync::mutex::Mutex;
 use embassy_sync::pipe::Pipe;
 use embassy_sync::signal::Signal;
 use embassy_time::{with_timeout, Duration, Instant, Timer};
+use rri_firmware::fragments::Link;
 
 /// Connections served at once.
 pub const SLOTS: usize = 2;
@@ -194,6 +195,29 @@ impl ServiceStats {
     }
 }
 
+/// What a connection's network half answers to besides its slot: the
+/// service's counters, and the cycle's link (its hold says when bytes
+/// moved now would be on a reply's path).
+#[derive(Clone, Copy)]
+pub struct Guest<'a> {
+    /// The service's counters.
+    pub stats: &'a ServiceStats,
+    /// The fragment guard's link to the cycle.
+    pub cycle: &'a Link,
+}
+
+/// Waits while the cycle works on a robot message or its reply waits to
+/// leave (the fragment guard's hold, [`Link::is_holding`]): this task runs
+/// on the cycle's executor, and a copy into the socket then could run
+/// between the message and its reply, whenever the executor picked it
+/// before the network runner. Polled every 200 µs: a hold lasts one turn
+/// of the cycle, bounded by 2 ms; outside a hold it costs one load.
+async fn after_the_reply(cycle: &Link) {
+    while cycle.is_holding() {
+        Timer::after(Duration::from_micros(200)).await;
+    }
+}
+
 fn bump(c: &core::sync::atomic::AtomicU32) {
     c.fetch_add(1, core::sync::atomic::Ordering::Relaxed);
 }
@@ -206,10 +230,11 @@ pub async fn connection(
     port: u16,
     slot: &Slot,
     half: &mut SocketHalf,
-    stats: &ServiceStats,
+    guest: Guest<'_>,
     rx: &mut [u8],
     tx: &mut [u8],
 ) -> ! {
+    let Guest { stats, cycle } = guest;
     let mut socket = TcpSocket::new(stack, rx, tx);
     loop {
         if socket.accept(port).await.is_err() {
@@ -229,7 +254,7 @@ pub async fn connection(
         slot.opened.signal(());
         half.inbound.len = 0;
         half.inbound.eof = false;
-        let ended = serve_connection(&mut socket, slot, half).await;
+        let ended = serve_connection(&mut socket, slot, half, cycle).await;
         if ended.served {
             bump(&stats.responses);
             // Our FIN after the response; the client's in return.
@@ -279,7 +304,12 @@ struct Ended {
 /// Moves bytes until the service has written everything and it has left
 /// the pipes, or the client went away, stopped reading or ran out of
 /// time.
-async fn serve_connection(socket: &mut TcpSocket<'_>, slot: &Slot, half: &mut SocketHalf) -> Ended {
+async fn serve_connection(
+    socket: &mut TcpSocket<'_>,
+    slot: &Slot,
+    half: &mut SocketHalf,
+    cycle: &Link,
+) -> Ended {
     let deadline = Instant::now() + REQUEST_TIMEOUT + RESPONSE_TIMEOUT;
     let SocketHalf { chunk, inbound } = half;
     let mut service_done = false;
@@ -290,6 +320,7 @@ async fn serve_connection(socket: &mut TcpSocket<'_>, slot: &Slot, half: &mut So
                 service_done,
             };
         }
+        after_the_reply(cycle).await;
         // One of: request bytes moved, response bytes ready, the service
         // done; or the connection's time is up.
         let step = select3(
@@ -310,6 +341,7 @@ async fn serve_connection(socket: &mut TcpSocket<'_>, slot: &Slot, half: &mut So
                 // Bounded like every other step: a client that takes no
                 // bytes for STALL_TIMEOUT loses the connection.
                 let bytes = chunk.get(..n).unwrap_or(&[]);
+                after_the_reply(cycle).await;
                 let limit = deadline.min(Instant::now() + STALL_TIMEOUT);
                 matches!(
                     select(write_all(socket, bytes), Timer::at(limit)).await,

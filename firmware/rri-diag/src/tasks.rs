@@ -166,7 +166,11 @@ async fn socket(
     while !link.is_channel_open() {
         embassy_time::Timer::after_millis(10).await;
     }
-    serve::connection(stack, port, slot, half, &STATS, rx, tx).await
+    let guest = serve::Guest {
+        stats: &STATS,
+        cycle: link,
+    };
+    serve::connection(stack, port, slot, half, guest, rx, tx).await
 }
 
 #[embassy_executor::task(pool_size = SLOTS)]

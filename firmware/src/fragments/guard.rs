@@ -217,7 +217,7 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
         } = self;
         // The cycle works on a robot message: nothing leaves in front of
         // its reply (`Link::may_transmit`; the cycle wakes us).
-        if !link.may_transmit(now_us(), cx.waker()) {
+        if link.is_holding() && !link.may_transmit(now_us(), cx.waker()) {
             wake_at_hold_end(link, cx);
             return None;
         }
