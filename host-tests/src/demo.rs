@@ -13,7 +13,6 @@
 //! sequence. A wrong or malformed reply fails in either.
 
 use crate::qemu::Qemu;
-use crate::robot::args::{plot_path, Properties, ShowArgs};
 use crate::robot::report::Summary;
 use crate::robot::{run, RobotOptions};
 use std::io::{IsTerminal, Write};
@@ -22,85 +21,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-/// The simulator's side of a run (`cargo demo` and `cargo hil` take the
-/// same options).
-#[derive(clap::Args, Clone, Debug)]
-pub struct RunArgs {
-    /// Over a TCP channel: the manual's device with Protocol="Tcp"
-    /// (host-tests/gsi/anydevice-tcp) instead of the configured one.
-    #[arg(long)]
-    pub tcp: bool,
-    /// Robot messages to send, one per 4 ms cycle.
-    #[arg(long, default_value_t = 2500, value_parser = clap::value_parser!(u64).range(1..))]
-    pub cycles: u64,
-    /// Robot cycles sent before the counted run (their figures are
-    /// printed, their timing is not judged; 0: none).
-    #[arg(long, default_value_t = 250)]
-    pub warm_up: u64,
-    /// Write the simulator's latency plot (.svg or .png) here.
-    #[arg(long, value_parser = plot_path)]
-    pub plot: Option<PathBuf>,
-    /// S5: after the warm-up, send the attack of "Fragments never lock the
-    /// controller out" (two 9,000-byte datagrams from another port of this
-    /// computer, the controller's address), then fail unless every robot
-    /// message of the counted run is answered (build with a configuration
-    /// whose robot messages are fragmented: host-tests/gsi/fragmented).
-    #[arg(long)]
-    pub oversize_attack: bool,
-    #[command(flatten)]
-    pub properties: Properties,
-    /// `--show FIELD,…`, `--show-csv`, `--show-plot`: the reply's values
-    /// as the simulator receives them (counted run only).
-    #[command(flatten)]
-    pub show: ShowArgs,
-    /// Read the device's /status.json before and after the counted run and print its counts
-    /// beside the simulator's: both sides of the wire, every disagreement named (fails when one
-    /// points inside the firmware).
-    #[arg(long)]
-    pub device_status: bool,
-    /// Inject a fault into the counted run (repeatable; `cargo robot --help` lists them), e.g.
-    /// drop:1 or garbage:2.
-    #[arg(long, value_name = "SPEC", value_parser = crate::robot::fault::Fault::parse)]
-    pub fault: Vec<crate::robot::fault::Fault>,
-    /// Seed of the fault injection.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Load the device's status page in headless Chromium during and after the counted run,
-    /// check the device name, state and answered count it shows against the simulator, and
-    /// write a screenshot here (.png).
-    #[arg(long, value_name = "FILE.png")]
-    pub browser: Option<PathBuf>,
-    /// Run the hostile HTTP catalogue against the device's diagnostics during the counted run;
-    /// fails unless every case gets its answer and every robot message is answered.
-    #[arg(long)]
-    pub http_attack: bool,
-    /// After the run, keep the device running (and its status page served) until Ctrl-C.
-    #[arg(long)]
-    pub serve: bool,
-}
-
-impl RunArgs {
-    /// Checks `--reply` and `--show` against the configured device, and
-    /// that a browser is there for `--browser`, before anything is built
-    /// (a bad argument exits 2 like clap's errors).
-    pub fn check_show(&self) -> Result<(), String> {
-        if self.browser.is_some() {
-            crate::browser::find().map_err(|e| format!("--browser: {e}"))?;
-        }
-        if self.show.show.is_empty()
-            && self.show.show_csv.is_none()
-            && self.show.show_plot.is_none()
-        {
-            return Ok(());
-        }
-        let setup = Setup::new(self.tcp)?;
-        let mut o = RobotOptions::new(setup.gsi.clone(), ([127, 0, 0, 1], 9).into());
-        o.device = setup.device_name.clone();
-        self.properties.apply(&mut o);
-        self.show.apply(&mut o);
-        crate::robot::check_show(&o, &setup.device)
-    }
-}
+pub use crate::run_args::RunArgs;
 
 /// Exit status when the only failure was lateness: every reply came and
 /// was right, but `MaxLost` of them in a row came later than one cycle
@@ -283,6 +204,9 @@ pub struct Ran {
     pub http_attacked: bool,
     /// What the browser and the HTTP catalogue found wrong.
     pub http_failures: Vec<String>,
+    /// [`RunArgs::figures_from_status`]: the device's own figures, read
+    /// over Ethernet, or why not.
+    pub figures: Option<Result<(), String>>,
 }
 
 /// Waits for the device to start (its banner, then `ready`, each within
@@ -328,11 +252,30 @@ pub fn drive(
     opts.progress = std::io::stderr().is_terminal();
     opts.device_log = Some(dev.live_lines());
     let mut warm = (0, 0);
+    // A replay's warm-up ends just below the capture's first Id, so the
+    // device counts no Id gap (S3) between the two.
+    let replay_first = match &args.replay.replay {
+        Some(_) => {
+            let mut o = opts.clone();
+            args.replay.apply(&mut o);
+            let r = o.replay.as_ref().ok_or_else(|| "--replay".to_string())?;
+            let conv = rri_robot::replay::load(r, &setup.device)?;
+            conv.messages
+                .iter()
+                .filter(|m| m.direction == rri_robot::replay::conversation::Direction::ToDevice)
+                .find_map(|m| rri_robot::replay::message_id(&m.payload))
+        }
+        None => None,
+    };
     if args.warm_up > 0 {
+        if let Some(first) = replay_first {
+            opts.first_id = first.wrapping_sub(args.warm_up as u32);
+        }
         let (first_id, sent, answered) = warm_up(&opts, &setup.device, args.warm_up)?;
         opts.first_id = first_id;
         warm = (sent, answered);
     }
+    args.replay.apply(&mut opts);
     opts.device_status = web.status_url();
     opts.faults = args.fault.clone();
     opts.seed = args.seed;
@@ -340,6 +283,7 @@ pub fn drive(
         oversize_attack(to)?;
     }
     match args.properties.send.as_slice() {
+        _ if args.replay.replay.is_some() => println!("== robot simulator: replaying a capture"),
         [] => println!("== robot simulator: {} cycles every 4 ms", args.cycles),
         sends => println!(
             "== robot simulator: {} cycles, sending {}",
@@ -366,13 +310,20 @@ pub fn drive(
             http_failures.push(e);
         }
     }
+    let figures = args.figures_from_status.then(|| {
+        http.ok_or_else(|| "no diagnostics to read".to_string())
+            .and_then(crate::diagnostics::figures_over_ethernet)
+    });
     let stopped = dev.stopped();
     let rest = dev.take_new();
     let log = dev.stop();
     for line in rest {
         println!("device: {line}");
     }
-    let (summary, _) = result?;
+    let (mut summary, _) = result?;
+    if let Some(r) = &mut summary.replay {
+        crate::replay::explain(r);
+    }
     let _ = summary.print(out);
     let _ = out.flush();
     Ok(Ran {
@@ -382,6 +333,7 @@ pub fn drive(
         attacked: args.oversize_attack,
         http_attacked: args.http_attack,
         http_failures,
+        figures,
     })
 }
 

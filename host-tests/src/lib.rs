@@ -31,6 +31,8 @@ pub mod memory_map;
 pub mod probe;
 pub mod qemu;
 pub mod qemu_bench;
+pub mod replay;
+pub mod run_args;
 pub mod sensor;
 
 /// The robot-controller simulator, a crate of its own (`rri-robot`) so

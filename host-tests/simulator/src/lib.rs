@@ -19,6 +19,7 @@ pub mod numbers;
 mod options;
 pub mod pcap;
 pub mod plot;
+pub mod replay;
 pub mod report;
 pub mod show;
 mod show_plot;
@@ -115,6 +116,9 @@ pub fn run(
     device: &Device,
     log: &mut dyn Write,
 ) -> Result<(Summary, Vec<Cycle>), String> {
+    if let Some(r) = &opts.replay {
+        return replayed(opts, r, device, log);
+    }
     if opts.rate_ms == 0 || !opts.rate_ms.is_multiple_of(4) {
         return Err(format!(
             "--rate-ms {}: must be a positive multiple of 4 (the controller's cycle)",
@@ -215,6 +219,43 @@ pub fn run(
         tick_ms,
         start_unix_us,
     );
+    Ok((s, cycles))
+}
+
+/// `--replay`: the capture's conversation against the sensor, with the
+/// device's own counts before and after (`--device-status`) and the
+/// summary's outputs (`--csv`, `--json`; the replay writes its own plot).
+fn replayed(
+    opts: &RobotOptions,
+    r: &replay::ReplayOptions,
+    device: &Device,
+    log: &mut dyn Write,
+) -> Result<(Summary, Vec<Cycle>), String> {
+    check_outputs(opts)?;
+    let reply = reply_property(opts, device)?;
+    let before = match &opts.device_status {
+        Some(url) => Some(
+            device_status::DeviceCounts::read(url).map_err(|e| format!("--device-status: {e}"))?,
+        ),
+        None => None,
+    };
+    let (mut s, cycles) = replay::run(opts, r, device, reply, log)?;
+    if let (Some(url), Some(before)) = (&opts.device_status, &before) {
+        match device_status::DeviceCounts::read(url) {
+            Ok(after) => s.device_status = Some(device_status::compare(&s, before, &after)),
+            Err(e) => s.output_errors.push(format!("--device-status: {e}")),
+        }
+    }
+    if let Some(p) = &opts.csv {
+        if let Err(e) = report::write_csv(p, &cycles, u64::from(s.rate_ms) * 1000) {
+            s.output_errors.push(format!("--csv {}: {e}", p.display()));
+        }
+    }
+    if let Some(p) = &opts.json {
+        if let Err(e) = report::write_json(p, &s) {
+            s.output_errors.push(format!("--json {}: {e}", p.display()));
+        }
+    }
     Ok((s, cycles))
 }
 

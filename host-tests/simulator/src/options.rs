@@ -52,6 +52,9 @@ pub struct RobotOptions {
     /// after the run and put its counts beside the simulator's
     /// ([`crate::device_status`]).
     pub device_status: Option<String>,
+    /// `--replay FILE`: replay a capture's robot messages instead of
+    /// making them ([`crate::replay`]).
+    pub replay: Option<crate::replay::ReplayOptions>,
 }
 
 impl RobotOptions {
@@ -82,6 +85,7 @@ impl RobotOptions {
             progress: false,
             device_log: None,
             device_status: None,
+            replay: None,
         }
     }
 }

@@ -152,6 +152,9 @@ pub fn write_pcap(
             frames.push((p.at_us, ipv4_packet(p.from, p.to, &L4::Udp, &p.payload)));
         }
     }
+    if path.extension().is_some_and(|e| e == "pcapng") {
+        return write_pcapng(path, &frames, start_unix_us);
+    }
     let mut f = io::BufWriter::new(std::fs::File::create(path)?);
     // Global header: magic, v2.4, tz 0, sigfigs 0, snaplen, LINKTYPE_RAW.
     f.write_all(&0xa1b2_c3d4u32.to_le_bytes())?;
@@ -168,6 +171,49 @@ pub fn write_pcap(
         f.write_all(&(pkt.len() as u32).to_le_bytes())?;
         f.write_all(&(pkt.len() as u32).to_le_bytes())?;
         f.write_all(&pkt)?;
+    }
+    f.flush()
+}
+
+/// The same frames as pcapng (a `.pcapng` file name): one section, one
+/// raw-IPv4 interface with microsecond timestamps, an enhanced packet
+/// block per frame. What Wireshark writes by default, so a capture made
+/// here and one made there take the same path through `--replay`.
+fn write_pcapng(path: &Path, frames: &[(u64, Vec<u8>)], start_unix_us: u64) -> io::Result<()> {
+    let mut f = io::BufWriter::new(std::fs::File::create(path)?);
+    let block = |f: &mut io::BufWriter<std::fs::File>, kind: u32, body: &[u8]| {
+        // Type, total length, body padded to 32 bits, total length again.
+        let padded = body.len().div_ceil(4) * 4;
+        let total = (12 + padded) as u32;
+        f.write_all(&kind.to_le_bytes())?;
+        f.write_all(&total.to_le_bytes())?;
+        f.write_all(body)?;
+        f.write_all(&vec![0u8; padded - body.len()])?;
+        f.write_all(&total.to_le_bytes())
+    };
+    // Section header: byte-order magic, v1.0, section length unknown.
+    let mut shb = Vec::new();
+    shb.extend_from_slice(&0x1a2b_3c4du32.to_le_bytes());
+    shb.extend_from_slice(&1u16.to_le_bytes());
+    shb.extend_from_slice(&0u16.to_le_bytes());
+    shb.extend_from_slice(&(-1i64).to_le_bytes());
+    block(&mut f, 0x0a0d_0d0a, &shb)?;
+    // Interface: LINKTYPE_RAW, snaplen 65,535 (default resolution: µs).
+    let mut idb = Vec::new();
+    idb.extend_from_slice(&101u16.to_le_bytes());
+    idb.extend_from_slice(&0u16.to_le_bytes());
+    idb.extend_from_slice(&65_535u32.to_le_bytes());
+    block(&mut f, 1, &idb)?;
+    for (at_us, pkt) in frames {
+        let t = start_unix_us + at_us;
+        let mut epb = Vec::with_capacity(20 + pkt.len());
+        epb.extend_from_slice(&0u32.to_le_bytes());
+        epb.extend_from_slice(&((t >> 32) as u32).to_le_bytes());
+        epb.extend_from_slice(&(t as u32).to_le_bytes());
+        epb.extend_from_slice(&(pkt.len() as u32).to_le_bytes());
+        epb.extend_from_slice(&(pkt.len() as u32).to_le_bytes());
+        epb.extend_from_slice(pkt);
+        block(&mut f, 6, &epb)?;
     }
     f.flush()
 }

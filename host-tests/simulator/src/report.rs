@@ -70,6 +70,8 @@ pub struct Summary {
     pub properties: Vec<PropertyFigures>,
     /// `--device-status`: the device's own counts beside these.
     pub device_status: Option<crate::device_status::Comparison>,
+    /// `--replay`: every reply against the recorded one.
+    pub replay: Option<crate::replay::ReplayReport>,
 }
 
 /// Faults injected by `--fault`, by kind.
@@ -190,7 +192,9 @@ impl Summary {
                 self.first_error.as_deref().unwrap_or("?")
             ));
         }
-        None
+        self.replay
+            .as_ref()
+            .and_then(crate::replay::ReplayReport::failure)
     }
 
     pub fn print(&self, out: &mut dyn Write) -> io::Result<()> {
@@ -248,6 +252,9 @@ impl Summary {
         }
         if let Some(c) = &self.device_status {
             c.print(out)?;
+        }
+        if let Some(r) = &self.replay {
+            r.print(out)?;
         }
         Ok(())
     }

@@ -57,6 +57,8 @@ pub(crate) struct Sim<'a> {
     pub(crate) show: Option<Show>,
     /// When the last live line of shown values was printed.
     pub(crate) shown_at: Option<Instant>,
+    /// `--replay`: the first reply to each Id, kept to compare.
+    pub(crate) replies: Option<HashMap<u32, Vec<u8>>>,
 }
 
 impl<'a> Sim<'a> {
@@ -115,6 +117,7 @@ impl<'a> Sim<'a> {
             bar,
             show: None,
             shown_at: None,
+            replies: None,
         }
     }
 
@@ -401,6 +404,9 @@ impl Sim<'_> {
             self.sup.last_answer = Some(at);
             if self.show.is_some() {
                 self.take_shown(bytes, index, reply.id, at);
+            }
+            if let Some(kept) = &mut self.replies {
+                kept.insert(reply.id, bytes.to_vec());
             }
             if !self.sup.operating && self.sup.tripped.is_none() {
                 self.sup.operating = true;

@@ -137,14 +137,17 @@ fn hil_run(board: &HilBoard, args: &Args) -> Result<(), Failure> {
             "the QEMU board"
         }
     );
-    let ran = demo::drive(dev, &setup, &args.run, to, http, &ready, &mut out)?;
+    // Without a probe, the device's own figures come from /status.json,
+    // read before the QEMU board stops with the run.
+    let run = RunArgs {
+        figures_from_status: args.no_probe,
+        ..args.run.clone()
+    };
+    let ran = demo::drive(dev, &setup, &run, to, http, &ready, &mut out)?;
     if args.no_probe {
         // The QEMU board with its log unread: as a real board without a probe.
-        let figures = http
-            .ok_or("no diagnostics to read".to_string())
-            .and_then(host_tests::diagnostics::figures_over_ethernet);
         demo::verdict("hil", &ran)?;
-        return figures.map_err(Failure::from);
+        return ran.figures.unwrap_or(Ok(())).map_err(Failure::from);
     }
     let figures = DeviceFigures::of(&ran.log);
     let csv = qemu::target_dir()
@@ -197,18 +200,21 @@ fn over_ethernet(args: &Args, setup: &Setup) -> Result<(), Failure> {
     };
     let http = SocketAddr::new(to.ip(), qemu::HTTP_PORT);
     println!("== no probe: driving the board at {to}, its figures from http://{http}/status.json");
+    let run = RunArgs {
+        figures_from_status: true,
+        ..args.run.clone()
+    };
     let ran = demo::drive(
         Box::new(host_tests::demo::Unlogged),
         setup,
-        &args.run,
+        &run,
         to,
         Some(http),
         &[],
         &mut std::io::stdout(),
     )?;
-    let figures = host_tests::diagnostics::figures_over_ethernet(http);
     demo::verdict("hil", &ran)?;
-    figures.map_err(Failure::from)
+    ran.figures.unwrap_or(Ok(())).map_err(Failure::from)
 }
 
 /// A started device, where the simulator reaches it, and where its

@@ -1,15 +1,20 @@
 //! `cargo robot -- --gsi DIR [--device NAME] --to ADDR [--cycles N]
 //! [--rate-ms 4] [--send NAME=MS]… [--reply NAME] [--tcp] [--csv FILE]
 //! [--plot FILE.svg|.png] [--pcap FILE] [--json FILE] [--fault SPEC]…
-//! [--show FIELD,… [--show-csv FILE] [--show-plot FILE.svg|.png]]`
+//! [--show FIELD,… [--show-csv FILE] [--show-plot FILE.svg|.png]]
+//! [--replay FILE.pcap[ng] [--conversation ADDR:PORT] [--every MS |
+//! --as-fast] [--tolerance [FIELD=]TOL]… [--ignore FIELD]… [--ignore-values]
+//! [--diff FILE.csv]] [--extract DIR]`
 //!
-//! Plays the robot controller against any RRI sensor. Exit status 0 if and
-//! only if supervision never tripped, every reply was correct and every
-//! output was written; 1 with the reason on stderr otherwise; 2 for bad
-//! arguments (clap's usage errors) or a bad GSI folder.
+//! Plays the robot controller against any RRI sensor, with messages it
+//! makes or (`--replay`) those of a capture from a cell. Exit status 0 if
+//! and only if supervision never tripped, every reply was correct (with
+//! `--replay`: matched the recorded one) and every output was written; 1
+//! with the reason on stderr otherwise; 2 for bad arguments (clap's usage
+//! errors), a bad GSI folder or a capture that cannot be replayed.
 
 use clap::Parser;
-use rri_robot::args::{multiple_of_4, plot_path, Properties, ShowArgs};
+use rri_robot::args::{multiple_of_4, plot_path, Properties, ReplayArgs, ShowArgs};
 use rri_robot::fault::{Fault, SPECS, UDP_ONLY};
 use rri_robot::{load, run, RobotOptions};
 use std::io::IsTerminal;
@@ -34,8 +39,8 @@ struct Args {
     #[arg(long, value_name = "NAME")]
     device: Option<String>,
     /// The sensor's address, e.g. 127.0.0.1:3002.
-    #[arg(long, value_name = "ADDR:PORT")]
-    to: SocketAddr,
+    #[arg(long, value_name = "ADDR:PORT", required_unless_present = "extract")]
+    to: Option<SocketAddr>,
     /// Controller cycles to run (with --send: cycles of the greatest common period).
     #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..))]
     cycles: u64,
@@ -55,7 +60,7 @@ struct Args {
     /// Latency histogram and latency over time (.svg or .png).
     #[arg(long, value_name = "FILE", value_parser = plot_path)]
     plot: Option<PathBuf>,
-    /// The exchanged messages, for Wireshark.
+    /// The exchanged messages, for Wireshark (.pcapng for pcapng, else pcap).
     #[arg(long, value_name = "FILE")]
     pcap: Option<PathBuf>,
     /// The summary, for scripts.
@@ -80,10 +85,22 @@ struct Args {
     /// after the run and print its counts beside the simulator's, naming every disagreement.
     #[arg(long, value_name = "URL")]
     device_status: Option<String>,
+    #[command(flatten)]
+    replay: ReplayArgs,
+    /// Write the robot messages of the capture given with --replay to DIR, one file each (a
+    /// corpus for cargo qemu-bench -- --corpus DIR and the fuzz targets), and replay nothing.
+    #[arg(long, value_name = "DIR", requires = "replay")]
+    extract: Option<PathBuf>,
 }
 
 fn options(a: Args) -> RobotOptions {
-    let mut o = RobotOptions::new(a.gsi, a.to);
+    let to =
+        a.to.unwrap_or_else(|| SocketAddr::from(([127, 0, 0, 1], 0)));
+    let mut o = RobotOptions::new(a.gsi, to);
+    a.replay.apply(&mut o);
+    if let Some(r) = &mut o.replay {
+        r.extract = a.extract;
+    }
     o.device = a.device;
     o.cycles = a.cycles;
     o.rate_ms = a.rate_ms;
@@ -113,6 +130,30 @@ fn main() -> ExitCode {
         }
     };
     let mut out = std::io::stdout();
+    if let Some(dir) = opts
+        .replay
+        .as_ref()
+        .and_then(|r| r.extract.as_ref().map(|d| (r, d)))
+    {
+        let (r, dir) = dir;
+        return match rri_robot::replay::load(r, &device)
+            .and_then(|conv| rri_robot::replay::extract(&conv, dir).map(|n| (conv, n)))
+        {
+            Ok((conv, n)) => {
+                println!(
+                    "{n} robot messages of {} ↔ {} written to {}",
+                    conv.controller,
+                    conv.device,
+                    dir.display()
+                );
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::from(2)
+            }
+        };
+    }
     match run(&opts, &device, &mut out) {
         Ok((summary, _)) => {
             let _ = summary.print(&mut out);

@@ -1,4 +1,4 @@
-//! `cargo qemu-bench [-- --cycles N] [--update-baseline]`: worst-case cycle
+//! `cargo qemu-bench [-- --cycles N] [--update-baseline] | [-- --corpus DIR]`: worst-case cycle
 //! cost of the firmware on QEMU's Cortex-M7 board, in instructions.
 //!
 //! Boots the bench build of the firmware under `-icount shift=3` (the
@@ -28,6 +28,7 @@
 mod report;
 mod run;
 mod scrape;
+mod user_corpus;
 
 use clap::Parser;
 use host_tests::counters::{DeviceCounters, LossSplit};
@@ -61,6 +62,11 @@ struct Args {
     /// Write this run's gated figures to the baseline file.
     #[arg(long)]
     update_baseline: bool,
+    /// Measure the messages in DIR instead (one robot message per file, e.g. from
+    /// `cargo robot -- --replay CAPTURE --extract DIR`), built for RRI_GSI_DIR: the worst case
+    /// on your own controller's traffic. Exit 1 when one costs more than a quarter cycle.
+    #[arg(long, value_name = "DIR", conflicts_with = "update_baseline")]
+    corpus: Option<PathBuf>,
 }
 
 /// `-icount shift=3`: 8 ns per instruction; the counter ticks at 25 MHz.
@@ -71,7 +77,11 @@ const CYCLE_AT_216MHZ: u64 = 864_000;
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    match bench(&args) {
+    let result = match &args.corpus {
+        Some(dir) => user_corpus::run(&args, dir),
+        None => bench(&args),
+    };
+    match result {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::FAILURE,
         Err(e) => {

@@ -1,0 +1,373 @@
+//! Reading what Wireshark and tcpdump write: pcap (micro- and nanosecond
+//! timestamps, either byte order) and pcapng (several sections, several
+//! interfaces, mixed link types), through pcap-parser; Ethernet, Linux
+//! cooked (SLL and SLL2), raw IPv4 and BSD loopback frames, through
+//! etherparse, which also reassembles IPv4 fragments (RFC 791: by source,
+//! destination, protocol and identification). What comes out is every
+//! UDP datagram and TCP segment over IPv4, numbered like Wireshark numbers
+//! packets (from 1), with its time in microseconds.
+
+use etherparse::defrag::IpDefragPool;
+use etherparse::{EtherType, NetSlice, SlicedPacket, TcpSlice, TransportSlice, UdpSlice};
+use pcap_parser::pcapng::Block;
+use pcap_parser::{Linktype, PcapBlockOwned, PcapError};
+use std::net::SocketAddrV4;
+use std::path::Path;
+
+/// The transport of a [`Segment`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Transport {
+    /// A whole UDP datagram (reassembled if it came in fragments).
+    Udp,
+    /// A TCP segment: its sequence number and flags.
+    Tcp {
+        seq: u32,
+        syn: bool,
+        fin: bool,
+        rst: bool,
+    },
+}
+
+/// One UDP datagram or TCP segment of the capture.
+#[derive(Clone, Debug)]
+pub struct Segment {
+    /// The packet that completed it (1 for the file's first).
+    pub number: usize,
+    /// Capture time, µs since the Unix epoch.
+    pub at_us: u64,
+    pub from: SocketAddrV4,
+    pub to: SocketAddrV4,
+    pub transport: Transport,
+    pub payload: Vec<u8>,
+}
+
+/// A packet shorter in the file than on the wire (the capture's snapshot
+/// length): its number and, where its headers were whole, its endpoints.
+#[derive(Clone, Debug)]
+pub struct Cut {
+    pub number: usize,
+    pub ends: Option<(SocketAddrV4, SocketAddrV4)>,
+}
+
+/// What the file held.
+#[derive(Debug, Default)]
+pub struct Capture {
+    /// Packets in the file.
+    pub packets: usize,
+    /// Every UDP datagram and TCP segment over IPv4, in file order.
+    pub segments: Vec<Segment>,
+    /// Packets cut by the snapshot length.
+    pub cut: Vec<Cut>,
+    /// Packets of a link type this reader does not take, by link type.
+    pub other_links: Vec<(i32, usize)>,
+}
+
+/// What the reader's last step came to.
+enum Step {
+    Consumed(usize),
+    End,
+    Refill,
+    Truncated,
+    Bad(String),
+}
+
+/// A packet as the file gives it.
+struct Frame<'a> {
+    number: usize,
+    at_us: u64,
+    link: Linktype,
+    data: &'a [u8],
+    cut: bool,
+}
+
+/// One pcapng interface: its link type and clock.
+#[derive(Clone, Copy)]
+struct Interface {
+    link: Linktype,
+    /// Timestamp units per second.
+    resolution: u64,
+    /// Seconds added to every timestamp.
+    offset: i64,
+}
+
+/// Reads `path`, or says in one line why it cannot be replayed from.
+pub fn read(path: &Path) -> Result<Capture, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let name = path.display();
+    let mut reader = pcap_parser::create_reader(1 << 20, &bytes[..]).map_err(|e| match e {
+        PcapError::Eof => format!("{name}: empty file, not a capture"),
+        PcapError::HeaderNotRecognized => {
+            format!(
+                "{name}: not a capture (neither pcap nor pcapng; Wireshark and tcpdump write both)"
+            )
+        }
+        PcapError::Incomplete(_) | PcapError::UnexpectedEof => {
+            format!("{name}: truncated before the first packet")
+        }
+        other => format!("{name}: not a readable capture ({other:?})"),
+    })?;
+    let mut out = Capture::default();
+    let mut pool = IpDefragPool::<u64, ()>::new();
+    let mut legacy: Option<(Linktype, bool)> = None;
+    let mut interfaces: Vec<Interface> = Vec::new();
+    loop {
+        let step = match reader.next() {
+            Ok((consumed, block)) => {
+                let frame = match block {
+                    PcapBlockOwned::LegacyHeader(h) => {
+                        legacy = Some((h.network, h.is_nanosecond_precision()));
+                        None
+                    }
+                    PcapBlockOwned::Legacy(b) => {
+                        let (link, nanos) = legacy.unwrap_or((Linktype::ETHERNET, false));
+                        let frac = u64::from(b.ts_usec) / if nanos { 1000 } else { 1 };
+                        out.packets += 1;
+                        Some(Frame {
+                            number: out.packets,
+                            at_us: u64::from(b.ts_sec) * 1_000_000 + frac,
+                            link,
+                            data: b.data,
+                            cut: b.caplen < b.origlen,
+                        })
+                    }
+                    PcapBlockOwned::NG(Block::SectionHeader(_)) => {
+                        // A new section describes its interfaces anew.
+                        interfaces.clear();
+                        None
+                    }
+                    PcapBlockOwned::NG(Block::InterfaceDescription(i)) => {
+                        interfaces.push(Interface {
+                            link: i.linktype,
+                            resolution: i.ts_resolution().unwrap_or(1_000_000).max(1),
+                            offset: i.ts_offset(),
+                        });
+                        None
+                    }
+                    PcapBlockOwned::NG(Block::EnhancedPacket(p)) => {
+                        out.packets += 1;
+                        let number = out.packets;
+                        let i = interfaces.get(p.if_id as usize).copied().ok_or_else(|| {
+                            format!(
+                                "{name}: packet {number} names interface {} that the file never described",
+                                p.if_id
+                            )
+                        })?;
+                        let ticks = (u128::from(p.ts_high) << 32) | u128::from(p.ts_low);
+                        let us = ticks * 1_000_000 / u128::from(i.resolution);
+                        let us = (us as i128 + i128::from(i.offset) * 1_000_000).max(0) as u64;
+                        Some(Frame {
+                            number,
+                            at_us: us,
+                            link: i.link,
+                            data: p.data,
+                            cut: p.caplen < p.origlen,
+                        })
+                    }
+                    PcapBlockOwned::NG(Block::SimplePacket(p)) => {
+                        // No timestamp, and the first interface's link type.
+                        out.packets += 1;
+                        let i = interfaces.first().copied().ok_or_else(|| {
+                            format!(
+                                "{name}: packet {} comes before any interface description",
+                                out.packets
+                            )
+                        })?;
+                        Some(Frame {
+                            number: out.packets,
+                            at_us: 0,
+                            link: i.link,
+                            data: p.data,
+                            cut: (p.data.len() as u64) < u64::from(p.origlen),
+                        })
+                    }
+                    PcapBlockOwned::NG(_) => None,
+                };
+                if let Some(f) = frame {
+                    take(&f, &mut pool, &mut out);
+                }
+                Step::Consumed(consumed)
+            }
+            Err(PcapError::Eof) => Step::End,
+            Err(PcapError::Incomplete(_)) => Step::Refill,
+            Err(PcapError::UnexpectedEof) => Step::Truncated,
+            Err(e) => Step::Bad(format!("{e:?}")),
+        };
+        match step {
+            Step::Consumed(n) => reader.consume(n),
+            Step::End => break,
+            Step::Refill if !reader.reader_exhausted() => {
+                reader.refill().map_err(|e| {
+                    format!("{name}: unreadable after packet {}: {e:?}", out.packets)
+                })?;
+            }
+            Step::Refill | Step::Truncated => {
+                return Err(format!(
+                    "{name}: truncated: the file ends inside the block after packet {}",
+                    out.packets
+                ))
+            }
+            Step::Bad(e) => {
+                return Err(format!(
+                    "{name}: unreadable after packet {}: {e}",
+                    out.packets
+                ))
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The IPv4 packet a frame carries, by its link type; `Err` with the link
+/// type when this reader does not take it.
+fn slice<'a>(link: Linktype, data: &'a [u8]) -> Result<Option<SlicedPacket<'a>>, i32> {
+    let sliced = match link {
+        Linktype::ETHERNET => SlicedPacket::from_ethernet(data),
+        // Linux cooked captures (`-i any`, and loopback on some systems):
+        // the protocol is an EtherType whatever the device type (etherparse
+        // takes it only for a few; a loopback's, ARPHRD 772, not).
+        // SLL: 16 bytes, the protocol last; SLL2: 20 bytes, the protocol
+        // first.
+        Linktype::LINUX_SLL => cooked(data, 14, 16),
+        Linktype::LINUX_SLL2 => cooked(data, 0, 20),
+        Linktype::RAW | Linktype::IPV4 => SlicedPacket::from_ip(data),
+        Linktype::NULL | Linktype::LOOP => {
+            // BSD loopback: a 4-byte address family (2: IPv4) in the
+            // capturing host's order (NULL) or big-endian (LOOP).
+            match (data.get(..4), data.get(4..)) {
+                (Some(family), Some(rest)) if family.contains(&2) => SlicedPacket::from_ip(rest),
+                _ => return Ok(None),
+            }
+        }
+        other => return Err(other.0),
+    };
+    Ok(sliced.ok())
+}
+
+/// A Linux cooked frame: its protocol (an EtherType) at `proto`, the
+/// packet from `payload` on.
+fn cooked(
+    data: &[u8],
+    proto: usize,
+    payload: usize,
+) -> Result<SlicedPacket<'_>, etherparse::err::packet::SliceError> {
+    let ty = data
+        .get(proto..proto + 2)
+        .map_or(0, |b| u16::from_be_bytes([b[0], b[1]]));
+    SlicedPacket::from_ether_type(EtherType(ty), data.get(payload..).unwrap_or(&[]))
+}
+
+/// Takes one frame: its UDP datagram or TCP segment, once whole.
+fn take(f: &Frame<'_>, pool: &mut IpDefragPool<u64, ()>, out: &mut Capture) {
+    let sliced = match slice(f.link, f.data) {
+        Ok(s) => s,
+        Err(link) => {
+            match out.other_links.iter_mut().find(|(l, _)| *l == link) {
+                Some((_, n)) => *n += 1,
+                None => out.other_links.push((link, 1)),
+            }
+            return;
+        }
+    };
+    let Some(sliced) = sliced else {
+        if f.cut {
+            out.cut.push(Cut {
+                number: f.number,
+                ends: None,
+            });
+        }
+        return;
+    };
+    let Some(NetSlice::Ipv4(ip)) = &sliced.net else {
+        return;
+    };
+    let header = ip.header();
+    let (src, dst) = (header.source_addr(), header.destination_addr());
+    if header.is_fragmenting_payload() {
+        // Fragments older than a second are let go, as a host would.
+        let now = f.at_us;
+        pool.retain(|t| now.saturating_sub(*t) < 1_000_000);
+        let Ok(Some(whole)) = pool.process_sliced_packet(&sliced, f.at_us, ()) else {
+            return;
+        };
+        let transport = match whole.ip_number {
+            etherparse::IpNumber::UDP => UdpSlice::from_slice(&whole.payload)
+                .ok()
+                .map(TransportSlice::Udp),
+            etherparse::IpNumber::TCP => TcpSlice::from_slice(&whole.payload)
+                .ok()
+                .map(TransportSlice::Tcp),
+            _ => None,
+        };
+        if let Some(t) = transport {
+            push(f, src, dst, &t, out);
+        }
+        return;
+    }
+    match &sliced.transport {
+        Some(t @ (TransportSlice::Udp(_) | TransportSlice::Tcp(_))) => {
+            if f.cut {
+                let ends =
+                    ports(t).map(|(a, b)| (SocketAddrV4::new(src, a), SocketAddrV4::new(dst, b)));
+                out.cut.push(Cut {
+                    number: f.number,
+                    ends,
+                });
+            } else {
+                push(f, src, dst, t, out);
+            }
+        }
+        _ => {
+            if f.cut {
+                out.cut.push(Cut {
+                    number: f.number,
+                    ends: None,
+                });
+            }
+        }
+    }
+}
+
+fn ports(t: &TransportSlice<'_>) -> Option<(u16, u16)> {
+    match t {
+        TransportSlice::Udp(u) => Some((u.source_port(), u.destination_port())),
+        TransportSlice::Tcp(t) => Some((t.source_port(), t.destination_port())),
+        _ => None,
+    }
+}
+
+fn push(
+    f: &Frame<'_>,
+    src: std::net::Ipv4Addr,
+    dst: std::net::Ipv4Addr,
+    t: &TransportSlice<'_>,
+    out: &mut Capture,
+) {
+    let (transport, from, to, payload) = match t {
+        TransportSlice::Udp(u) => (
+            Transport::Udp,
+            u.source_port(),
+            u.destination_port(),
+            u.payload(),
+        ),
+        TransportSlice::Tcp(t) => (
+            Transport::Tcp {
+                seq: t.sequence_number(),
+                syn: t.syn(),
+                fin: t.fin(),
+                rst: t.rst(),
+            },
+            t.source_port(),
+            t.destination_port(),
+            t.payload(),
+        ),
+        _ => return,
+    };
+    out.segments.push(Segment {
+        number: f.number,
+        at_us: f.at_us,
+        from: SocketAddrV4::new(src, from),
+        to: SocketAddrV4::new(dst, to),
+        transport,
+        payload: payload.to_vec(),
+    });
+}
