@@ -6,6 +6,10 @@ use crate::robot::args::{plot_path, Properties, ShowArgs};
 use crate::robot::RobotOptions;
 use std::path::PathBuf;
 
+/// The clap id of `--fault SPEC`, so a command whose own `--fault` means
+/// something else can rename it (`cargo hil` calls it `--inject`).
+pub const FAULT_ARG: &str = "inject_fault";
+
 /// The simulator's side of a run (`cargo demo` and `cargo hil` take the
 /// same options).
 #[derive(clap::Args, Clone, Debug)]
@@ -43,8 +47,9 @@ pub struct RunArgs {
     #[arg(long)]
     pub device_status: bool,
     /// Inject a fault into the counted run (repeatable; `cargo robot --help` lists them), e.g.
-    /// drop:1 or garbage:2.
-    #[arg(long, value_name = "SPEC", value_parser = crate::robot::fault::Fault::parse)]
+    /// drop:1 or garbage:2. (`cargo hil` spells it `--inject`: its `--fault` is the HardFault
+    /// check.)
+    #[arg(long = "fault", id = FAULT_ARG, value_name = "SPEC", value_parser = crate::robot::fault::Fault::parse)]
     pub fault: Vec<crate::robot::fault::Fault>,
     /// Seed of the fault injection.
     #[arg(long, default_value_t = 1)]

@@ -75,3 +75,13 @@ fn run_demo(args: &RunArgs) -> Result<(), Failure> {
     )?;
     demo::verdict("demo", &ran)
 }
+
+#[cfg(test)]
+mod command_line {
+    /// clap's own consistency checks (unique names and flags): a clash
+    /// would otherwise show only as a panic in a debug build.
+    #[test]
+    fn is_consistent() {
+        <super::Args as clap::CommandFactory>::command().debug_assert();
+    }
+}

@@ -412,3 +412,13 @@ fn inside(args: &Args) -> Result<u8, String> {
     println!("{}", if ok { "flood: PASS" } else { "flood: FAIL" });
     Ok(if ok { 0 } else { 1 })
 }
+
+#[cfg(test)]
+mod command_line {
+    /// clap's own consistency checks (unique names and flags): a clash
+    /// would otherwise show only as a panic in a debug build.
+    #[test]
+    fn is_consistent() {
+        <super::Args as clap::CommandFactory>::command().debug_assert();
+    }
+}

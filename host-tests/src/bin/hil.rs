@@ -1,5 +1,5 @@
 //! `cargo hil -- --board f767|h743|qemu [--to ADDR[:PORT]] [--probe SEL]
-//! [--elf PATH] [--features F]... [--fault] [--cycles N] [--warm-up N]
+//! [--elf PATH] [--features F]... [--fault] [--inject SPEC]... [--cycles N] [--warm-up N]
 //! [--tcp] [--send NAME=MS]... [--reply NAME]`: the hardware acceptance
 //! run, the first real board in one command.
 //!
@@ -25,7 +25,7 @@
 //! but late (as `cargo demo`); 4 nothing to run on (probe-rs or the probe
 //! missing).
 
-use clap::Parser;
+use clap::{CommandFactory, FromArgMatches, Parser};
 use host_tests::demo::{self, Device, Failure, RunArgs, Setup};
 use host_tests::hil::{self, DeviceFigures, HilBoard};
 use host_tests::probe::{self, ProbeRun};
@@ -72,8 +72,17 @@ struct Args {
     run: RunArgs,
 }
 
+/// The command line: the simulator's `--fault SPEC` is `--inject SPEC`
+/// here, since `--fault` is this command's HardFault check.
+fn command() -> clap::Command {
+    Args::command().mut_arg(host_tests::run_args::FAULT_ARG, |a| a.long("inject"))
+}
+
 fn main() -> ExitCode {
-    let args = Args::parse();
+    let args = match Args::from_arg_matches(&command().get_matches()) {
+        Ok(args) => args,
+        Err(e) => e.exit(),
+    };
     let Some(board) = hil::board(&args.board) else {
         eprintln!("error: unknown board {}", args.board);
         return ExitCode::from(2);
@@ -317,5 +326,25 @@ mod tests {
             "192.168.125.4:4000".parse().unwrap()
         );
         assert!(parse_to("robot", 3002).is_err());
+    }
+
+    /// clap's own consistency checks (unique names and flags): a clash
+    /// would otherwise show only as a panic in a debug build.
+    #[test]
+    fn the_command_line_is_consistent() {
+        super::command().debug_assert();
+    }
+
+    /// `--inject` reaches the simulator's faults; `--fault` stays the
+    /// HardFault check.
+    #[test]
+    fn inject_is_the_simulators_fault_and_fault_the_hardfault_check() {
+        use clap::FromArgMatches;
+        let m = super::command()
+            .try_get_matches_from(["hil", "--board", "qemu", "--inject", "drop:1", "--fault"])
+            .unwrap();
+        let args = super::Args::from_arg_matches(&m).unwrap();
+        assert!(args.fault);
+        assert_eq!(args.run.fault.len(), 1);
     }
 }
