@@ -15,9 +15,7 @@ use embassy_net::{Stack, StackResources};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::mutex::Mutex;
 use embassy_time::{Duration, Instant, MockDriver, Timer};
-use memnet::{
-    mock_clock, net_config, poll_once, Frames, MemDriver, DEVICE_MAC, ROBOT_IP, ROBOT_MAC,
-};
+use memnet::{mock_clock, net_config, poll_once, MemDriver, DEVICE_MAC, ROBOT_IP};
 use rri_diag::serve::{self, Renderer, ServiceHalf, ServiceStats, Slot, SocketHalf, SLOTS, WINDOW};
 use rri_diag::status::{Latency, LatencySource, LinkInfo};
 use rri_diag::{Identity, Status};
@@ -25,7 +23,6 @@ use rri_firmware::fragments::Link;
 use rri_firmware::snapshot::Snapshot;
 use smoltcp::wire::Ipv4Address;
 use std::pin::pin;
-use std::rc::Rc;
 
 const DEVICE_IP: [u8; 4] = [10, 49, 65, 74];
 const PORT: u16 = 80;
@@ -83,18 +80,7 @@ where
 {
     let _clock = mock_clock();
     MockDriver::get().reset();
-    let a: Frames = Rc::default();
-    let b: Frames = Rc::default();
-    let device_driver = MemDriver {
-        to_device: a.clone(),
-        from_device: b.clone(),
-        mac: DEVICE_MAC,
-    };
-    let client_driver = MemDriver {
-        to_device: b,
-        from_device: a,
-        mac: ROBOT_MAC,
-    };
+    let (device_driver, client_driver, _, _) = MemDriver::pair();
     let device_res = Box::leak(Box::new(StackResources::<{ SLOTS + 1 }>::new()));
     let client_res = Box::leak(Box::new(StackResources::<8>::new()));
     let (device, mut device_runner) =

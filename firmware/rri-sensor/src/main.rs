@@ -305,38 +305,25 @@ async fn cycle(stack: Stack<'static>, reader: SampleReader<'static, Samples>) ->
     // deepest the stack goes, see hal_board::stack); from here the cycle's
     // own depth is measured.
     hal_board::stack::repaint();
+    let cycle = net::Cycle {
+        stack,
+        port: layout::CHANNEL_PORT,
+        engine,
+        app: &mut app,
+        clock: &EmbassyClock,
+        monitor: &mut monitor,
+        link: &LINK,
+    };
     if TCP {
         static BUFFERS: ConstStaticCell<
             net::TcpBuffers<TCP_SOCKET, { layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>,
         > = ConstStaticCell::new(net::TcpBuffers::new());
-        let buffers = BUFFERS.take();
-        net::Cycle {
-            stack,
-            port: layout::CHANNEL_PORT,
-            engine,
-            app: &mut app,
-            clock: &EmbassyClock,
-            monitor: &mut monitor,
-            link: &LINK,
-        }
-        .tcp(buffers)
-        .await
+        cycle.tcp(BUFFERS.take()).await
     } else {
         static BUFFERS: ConstStaticCell<
             net::UdpBuffers<{ layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>,
         > = ConstStaticCell::new(net::UdpBuffers::new());
-        let buffers = BUFFERS.take();
-        net::Cycle {
-            stack,
-            port: layout::CHANNEL_PORT,
-            engine,
-            app: &mut app,
-            clock: &EmbassyClock,
-            monitor: &mut monitor,
-            link: &LINK,
-        }
-        .udp(buffers)
-        .await
+        cycle.udp(BUFFERS.take()).await
     }
 }
 

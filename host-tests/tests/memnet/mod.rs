@@ -32,6 +32,27 @@ pub struct MemDriver {
     pub mac: [u8; 6],
 }
 
+impl MemDriver {
+    /// The two ends of one cable, on a fresh network: the device's (MAC
+    /// [`DEVICE_MAC`]) and the peer's ([`ROBOT_MAC`]), and the frame
+    /// queues (to the device, from it) for tests that watch the wire.
+    pub fn pair() -> (MemDriver, MemDriver, Frames, Frames) {
+        let a: Frames = Rc::default();
+        let b: Frames = Rc::default();
+        let device = MemDriver {
+            to_device: a.clone(),
+            from_device: b.clone(),
+            mac: DEVICE_MAC,
+        };
+        let peer = MemDriver {
+            to_device: b.clone(),
+            from_device: a.clone(),
+            mac: ROBOT_MAC,
+        };
+        (device, peer, a, b)
+    }
+}
+
 pub struct MemRx(Vec<u8>);
 pub struct MemTx(Frames);
 
@@ -124,18 +145,7 @@ where
     let _clock = mock_clock();
     let device_ip = layout::NETWORK_IPV4.expect("IPv4");
     MockDriver::get().reset();
-    let a: Frames = Rc::default();
-    let b: Frames = Rc::default();
-    let device_driver = MemDriver {
-        to_device: a.clone(),
-        from_device: b.clone(),
-        mac: DEVICE_MAC,
-    };
-    let robot_driver = MemDriver {
-        to_device: b,
-        from_device: a,
-        mac: ROBOT_MAC,
-    };
+    let (device_driver, robot_driver, _, _) = MemDriver::pair();
     // Leaked (a few KiB per test) so the robot's future may hold its stack.
     let device_res = Box::leak(Box::new(StackResources::<2>::new()));
     let robot_res = Box::leak(Box::new(StackResources::<3>::new()));

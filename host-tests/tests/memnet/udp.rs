@@ -16,7 +16,6 @@ use smoltcp::wire::{
     EthernetRepr, IpProtocol, Ipv4Address, Ipv4Packet, Ipv4Repr, UdpPacket, UdpRepr,
 };
 use std::pin::pin;
-use std::rc::Rc;
 
 /// The robot simulator's source port.
 pub const ROBOT_PORT: u16 = 6510;
@@ -226,13 +225,7 @@ pub fn with_udp_device<A>(
 {
     let _clock = super::mock_clock();
     MockDriver::get().reset();
-    let to_device: Frames = Rc::default();
-    let from_device: Frames = Rc::default();
-    let driver = MemDriver {
-        to_device: to_device.clone(),
-        from_device: from_device.clone(),
-        mac: DEVICE_MAC,
-    };
+    let (driver, _, to_device, from_device) = MemDriver::pair();
     let link = Link::new();
     let mut reassembler = Box::new(Reassembler::<BUF>::new());
     let channel = Channel {
