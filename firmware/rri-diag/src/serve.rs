@@ -207,15 +207,21 @@ pub struct Guest<'a> {
 }
 
 /// Waits while the cycle works on a robot message or its reply waits to
-/// leave (the fragment guard's hold, [`Link::is_holding`]): this task runs
+/// leave (the fragment guard's hold, [`Link::when_free`]): this task runs
 /// on the cycle's executor, and a copy into the socket then could run
 /// between the message and its reply, whenever the executor picked it
-/// before the network runner. Polled every 200 µs: a hold lasts one turn
-/// of the cycle, bounded by 2 ms; outside a hold it costs one load.
+/// before the network runner. Woken when the hold ends (no timer: a
+/// guest that polled would itself run in that window); outside a hold it
+/// costs one look.
 async fn after_the_reply(cycle: &Link) {
-    while cycle.is_holding() {
-        Timer::after(Duration::from_micros(200)).await;
-    }
+    core::future::poll_fn(|cx| {
+        if cycle.when_free(cx.waker()) {
+            core::task::Poll::Ready(())
+        } else {
+            core::task::Poll::Pending
+        }
+    })
+    .await
 }
 
 fn bump(c: &core::sync::atomic::AtomicU32) {

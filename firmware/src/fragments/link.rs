@@ -28,7 +28,14 @@ pub struct Link {
     /// always nothing is held (a critical section each cost the hostile
     /// worst case about 100 instructions a frame).
     holding: core::sync::atomic::AtomicBool,
+    /// Tasks that wait for a hold to end before they touch the network
+    /// (the diagnostics' connections, [`Link::when_free`]).
+    guests: Mutex<RefCell<[Option<core::task::Waker>; GUESTS]>>,
 }
+
+/// Tasks that may wait for a hold to end at once (the diagnostics'
+/// connection slots, with room to spare).
+pub const GUESTS: usize = 4;
 
 /// Where a robot message handed to the stack is, for the guard: while
 /// the cycle works on it the network runner does nothing (it would send
@@ -83,6 +90,7 @@ impl Link {
             hold: Mutex::new(RefCell::new((Hold::Idle, None))),
             channel_open: core::sync::atomic::AtomicBool::new(false),
             holding: core::sync::atomic::AtomicBool::new(false),
+            guests: Mutex::new(RefCell::new([const { None }; GUESTS])),
         }
     }
 
@@ -107,7 +115,7 @@ impl Link {
         critical_section::with(|cs| {
             self.wire.borrow_ref_mut(cs).0 = Some(at_us);
             self.hold.borrow_ref_mut(cs).0 = Hold::Awaiting { since_us: at_us };
-            self.set_holding(true);
+            self.set_holding(cs, true);
         });
     }
 
@@ -125,7 +133,7 @@ impl Link {
                         held: false,
                     }
                 } else {
-                    self.set_holding(false);
+                    self.set_holding(cs, false);
                     Hold::Idle
                 };
             }
@@ -160,10 +168,42 @@ impl Link {
     }
 
     /// Mirrors whether `hold` holds anything (called with it, in its
-    /// critical section).
-    fn set_holding(&self, on: bool) {
+    /// critical section); when the hold ends, wakes the guests waiting.
+    fn set_holding(&self, cs: critical_section::CriticalSection<'_>, on: bool) {
         self.holding
             .store(on, core::sync::atomic::Ordering::Release);
+        if !on {
+            for w in self.guests.borrow_ref_mut(cs).iter_mut() {
+                if let Some(w) = w.take() {
+                    w.wake();
+                }
+            }
+        }
+    }
+
+    /// For a task beside the cycle that must not work between a robot
+    /// message and its reply (it would run on the cycle's executor in
+    /// that window): `true` when nothing is held; else `waker` is woken
+    /// when the hold ends (an event, not a poll: a guest costs the window
+    /// nothing), and `false`.
+    pub fn when_free(&self, waker: &core::task::Waker) -> bool {
+        critical_section::with(|cs| {
+            if !self.is_holding() {
+                return true;
+            }
+            let mut guests = self.guests.borrow_ref_mut(cs);
+            if guests.iter().flatten().any(|w| w.will_wake(waker)) {
+                return false;
+            }
+            match guests.iter_mut().find(|w| w.is_none()) {
+                Some(slot) => {
+                    *slot = Some(waker.clone());
+                    false
+                }
+                // More guests than places: let this one go on.
+                None => true,
+            }
+        })
     }
 
     /// When the hold in force ends at the latest ([`HOLD_MAX_US`] after
@@ -197,7 +237,7 @@ impl Link {
             };
             if now_us.saturating_sub(since) >= HOLD_MAX_US {
                 hold.0 = Hold::Idle;
-                self.set_holding(false);
+                self.set_holding(cs, false);
                 return true;
             }
             if !holds(&mut hold.0) {
@@ -220,7 +260,7 @@ impl Link {
                 wire.1.record_at(at_us.saturating_sub(at), at_us);
             }
             self.hold.borrow_ref_mut(cs).0 = Hold::Idle;
-            self.set_holding(false);
+            self.set_holding(cs, false);
         });
     }
 
@@ -289,6 +329,30 @@ mod tests {
         assert!(link.may_transmit(240, &w) && link.may_receive(240, &w));
         assert_eq!(link.latency().count, 1);
         assert_eq!(link.latency().max_us, 130);
+    }
+
+    #[test]
+    fn guests_wait_for_the_reply_and_are_woken_when_it_leaves() {
+        let link = Link::new();
+        let (woken, w) = waker();
+        assert!(link.when_free(&w), "nothing held: go on");
+        link.message_in(100);
+        assert!(!link.when_free(&w), "held: wait");
+        assert!(!link.when_free(&w), "registered once");
+        link.turn_done(true);
+        assert_eq!(woken.0.load(Ordering::Relaxed), 0, "the reply has not left");
+        link.reply_out(150);
+        assert_eq!(
+            woken.0.load(Ordering::Relaxed),
+            1,
+            "woken as the reply leaves"
+        );
+        assert!(link.when_free(&w));
+        // A message with no reply frees the guests at once too.
+        link.message_in(200);
+        assert!(!link.when_free(&w));
+        link.turn_done(false);
+        assert_eq!(woken.0.load(Ordering::Relaxed), 2);
     }
 
     #[test]
