@@ -92,6 +92,24 @@ pub fn sections(elf: &Path) -> Result<Vec<(String, u64, u64)>, String> {
         .collect())
 }
 
+/// What the sensor's statics take in the firmware ELF, in bytes: its
+/// sample cell (`rri_sensor::SAMPLES`, the triple buffer's three copies of
+/// the history) and the sampler task (`rri_sensor::sampler`'s pool: its own
+/// copy and the task's state). `None` when neither is there.
+pub fn sensor_statics(elf: &Path) -> Result<Option<u64>, String> {
+    use object::{Object, ObjectSymbol};
+    let data = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*data).map_err(|e| format!("{}: {e}", elf.display()))?;
+    // Legacy mangling: `_ZN10rri_sensor7SAMPLES17h…E`.
+    const OURS: [&str; 2] = ["10rri_sensor7SAMPLES17h", "10rri_sensor7sampler4POOL17h"];
+    let sizes: Vec<u64> = file
+        .symbols()
+        .filter(|s| s.name().is_ok_and(|n| OURS.iter().any(|o| n.contains(o))))
+        .map(|s| s.size())
+        .collect();
+    Ok((!sizes.is_empty()).then(|| sizes.iter().sum()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
