@@ -57,7 +57,12 @@ impl<T: Copy> SampleCell<T> {
                 UnsafeCell::new(initial),
                 UnsafeCell::new(initial),
             ],
-            middle: AtomicU8::new(1),
+            // Slot 0 starts in the middle, 1 with the reader, 2 with the
+            // writer: the state starts at zero, so a cell whose initial
+            // value is all zeroes (an empty `History`) is all zeroes, and
+            // sits in `.bss` rather than in `.data` (no copy in flash, no
+            // copy at start-up).
+            middle: AtomicU8::new(0),
             split: AtomicBool::new(false),
         }
     }
@@ -75,7 +80,7 @@ impl<T: Copy> SampleCell<T> {
             },
             SampleReader {
                 cell: self,
-                front: 0,
+                front: 1,
             },
         ))
     }
@@ -133,6 +138,15 @@ impl<T: Copy> SampleReader<'_, T> {
 mod tests {
     use super::*;
     extern crate std;
+
+    /// A new cell's own state is zero, so a zero initial value makes the
+    /// whole static zero-initialised (`.bss`, no image in flash).
+    #[test]
+    fn a_new_cells_state_is_zero() {
+        let cell = SampleCell::new(0u32);
+        assert_eq!(cell.middle.load(Ordering::Relaxed), 0);
+        assert!(!cell.split.load(Ordering::Relaxed));
+    }
 
     #[test]
     fn the_initial_value_before_the_first_publish_then_always_the_latest() {
