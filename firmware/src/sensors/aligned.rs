@@ -1,7 +1,7 @@
 //! Time-aligned measurement (T2), the reason RRI carries timestamps: the
 //! robot's feedback pose is ~8 ms old when its message arrives, so the
 //! newest sample belongs to another position of the tool. This sensor
-//! samples at 1 kHz, keeps the last 64 ms, and answers each message with
+//! samples at 1 kHz, keeps the last 24 ms, and answers each message with
 //! the sample taken closest to the robot's feedback time, beside the
 //! feedback pose it belongs to: `[distance, offset_ms, x, y, z]` in the
 //! first `real` array (the manual's `AppData`), where `offset_ms` is how
@@ -16,6 +16,9 @@ use rri_firmware::sensor::prelude::*;
 /// What the firmware and `cargo sensor-host` run when `RRI_SENSOR` names
 /// this file.
 pub type ThisSensor = Aligned;
+
+/// Samples kept (one per ms).
+pub const HISTORY: usize = 24;
 
 /// A0's full scale as a distance.
 pub const RANGE_MM: f32 = 300.0;
@@ -35,8 +38,10 @@ pub struct Aligned;
 
 impl<R: RobotSet, D: DeviceSet> Sensor<R, D> for Aligned {
     type Sample = Reading;
-    /// 64 ms at 1 kHz: far more than the feedback's age.
-    type History = History<Self::Sample, 64>;
+    /// 24 ms at 1 kHz: three times the feedback's age, and small enough
+    /// for the boards (four copies of 584 bytes in the DTCM, see the
+    /// README's "How much RAM your sensor may take").
+    type History = History<Self::Sample, HISTORY>;
     const SAMPLE_EVERY_US: u32 = 1_000;
 
     fn new() -> Self {
@@ -75,12 +80,18 @@ impl<R: RobotSet, D: DeviceSet> Sensor<R, D> for Aligned {
         // clock) as a device time, where the samples are.
         let robot_at = feedback(robot)
             .and_then(|(time, pose)| Some((cycle.robot_clock?.device_time(time)?, pose)));
+        // Never stale as fresh: without a pairing the values are 0 and the
+        // status says why.
         let Some((at, pose)) = robot_at else {
+            fill_reals(device, cycle.sending, &[0.0; 5]);
             set_status(device, cycle.sending, "NO FEEDBACK");
             return;
         };
         let status = match samples.closest(at) {
-            None => "NO SAMPLE",
+            None => {
+                fill_reals(device, cycle.sending, &[0.0; 5]);
+                "NO SAMPLE"
+            }
             Some(s) => {
                 let offset_ms = s.time.signed_micros_since(at) as f32 / 1000.0;
                 let values = [s.value.mm, offset_ms, pose.x, pose.y, pose.z];

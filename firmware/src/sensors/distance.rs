@@ -59,9 +59,12 @@ impl<R: RobotSet, D: DeviceSet> Sensor<R, D> for Distance {
             Some(age) if age > STALE_AFTER_US => "STALE",
             Some(_) => "OK",
         };
+        // Never stale as fresh: without a fresh sample the distance and
+        // the point are 0 and the status says why (the filter keeps its
+        // state for when samples come back); only the age is reported.
         let distance = match latest {
             Some(s) if status == "OK" => Some(self.filter.update(s.value)),
-            _ => self.filter.value(),
+            _ => None,
         };
         let point = match (first_frame(robot), distance) {
             (Some(pose), Some(d)) => project(&pose, d),

@@ -2,7 +2,7 @@
 //! fed by hand: what each reply must carry for the samples and robot data
 //! given.
 
-use super::aligned::{Aligned, Reading};
+use super::aligned::{Aligned, Reading, HISTORY};
 use super::distance::Distance;
 use crate::engine::{CycleInfo, Instant, RobotClock, SensorState, Stats};
 use crate::layout::{DeviceProperties, RobotProperties};
@@ -92,7 +92,8 @@ fn distance_projects_the_filtered_reading_along_the_tool() {
         &info(&stats, Instant::from_millis(20), None),
     );
     assert!(close(device.sens_data.application_data[0], 130.0));
-    // Too old: STALE, and the filter keeps its value.
+    // Too old: STALE, and never the last value as if it were fresh: the
+    // distance and the point 0, only the age (180 ms) reported.
     sensor.fill(
         &h,
         &r,
@@ -100,7 +101,21 @@ fn distance_projects_the_filtered_reading_along_the_tool() {
         &info(&stats, Instant::from_millis(200), None),
     );
     assert_eq!(device.sens_data.error_string.as_str(), "STALE");
-    assert!(close(device.sens_data.application_data[0], 130.0));
+    let a = device.sens_data.application_data;
+    assert_eq!(a[..4], [0.0; 4], "{a:?}");
+    assert!(close(a[4], 180.0), "{a:?}");
+    // The filter kept its state: a fresh sample goes on from 130.
+    h.push(Stamped {
+        time: Instant::from_millis(205),
+        value: 200.0,
+    });
+    sensor.fill(
+        &h,
+        &r,
+        &mut device,
+        &info(&stats, Instant::from_millis(206), None),
+    );
+    assert!(close(device.sens_data.application_data[0], 151.0));
 }
 
 #[test]
@@ -119,8 +134,9 @@ fn distance_without_samples_says_so() {
     assert_eq!(device.sens_data.application_data[4], -1.0);
 }
 
-/// Samples every ms from 0 to 63 ms, each value its time in ms.
-fn one_khz() -> History<Reading, 64> {
+/// Samples every ms from 0 to 63 ms, each value its time in ms (the
+/// history keeps the last 24: 40 to 63 ms).
+fn one_khz() -> History<Reading, HISTORY> {
     let mut h = History::EMPTY;
     for ms in 0..64u64 {
         h.push(Stamped {
@@ -189,10 +205,21 @@ fn aligned_without_robot_time_or_samples_says_which() {
         &info(&stats, Instant(60_400), None),
     );
     assert_eq!(device.sens_data.error_string.as_str(), "NO FEEDBACK");
+    assert_eq!(device.sens_data.application_data[..5], [0.0; 5]);
     let clock = RobotClock {
         ts: Time::from_micros(86_400_060_000),
         received: Instant(60_300),
     };
+    // After a paired reply, a cycle without samples clears its values:
+    // never the last cycle's as if they were new.
+    sensor.fill(
+        &one_khz(),
+        &r,
+        &mut device,
+        &info(&stats, Instant(60_400), Some(clock)),
+    );
+    assert_eq!(device.sens_data.error_string.as_str(), "OK");
+    assert_ne!(device.sens_data.application_data[..5], [0.0; 5]);
     sensor.fill(
         &History::EMPTY,
         &r,
@@ -200,6 +227,7 @@ fn aligned_without_robot_time_or_samples_says_which() {
         &info(&stats, Instant(60_400), Some(clock)),
     );
     assert_eq!(device.sens_data.error_string.as_str(), "NO SAMPLE");
+    assert_eq!(device.sens_data.application_data[..5], [0.0; 5]);
 }
 
 #[test]
