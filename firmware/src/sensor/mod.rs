@@ -36,15 +36,19 @@ pub use fields::{feedback, fill_reals, first_frame, set_status};
 pub use hal_board::io::{Inputs, Simulated};
 pub use history::{History, Ring, Stamped};
 
+pub mod math;
+
 use crate::engine::{Application, CycleInfo, Instant};
 use crate::layout::{DeviceProperties, RobotProperties};
 use crate::sample::{SampleReader, SampleWriter};
 use core::marker::PhantomData;
 
-/// Everything a sensor file needs: `use rri_firmware::sensor::prelude::*;`.
+/// Everything a sensor file needs: `use rri_firmware::sensor::prelude::*;`
+/// (its [`math`](super::math) too: `math::sin(x)`, the same on the host
+/// and the MCU).
 pub mod prelude {
     pub use super::{
-        feedback, fill_reals, first_frame, set_status, History, Inputs, Sensor, Stamped,
+        feedback, fill_reals, first_frame, math, set_status, History, Inputs, Sensor, Stamped,
     };
     pub use crate::engine::{CycleInfo, Instant, RobotClock};
     pub use crate::layout::{DeviceProperties, RobotProperties};
@@ -93,6 +97,13 @@ pub trait Sensor<R = RobotProperties, D = DeviceProperties>: Sized {
     /// Fills the device property about to be sent (`cycle.sending`) from
     /// the samples and the robot's data; whatever it leaves there goes out.
     /// Runs at the cycle's priority: bounded work, no blocking, no heap.
+    ///
+    /// The contract: never a stale value as a fresh one. The property
+    /// keeps what the last call wrote (the engine does not clear it), so
+    /// when there is no fresh sample for a value, write it as 0 (or empty)
+    /// and say why in a status field, as both examples do (`STALE`,
+    /// `NO SAMPLE`, `NO FEEDBACK`): a robot program that reads the value
+    /// without the status must not follow an old measurement.
     fn fill(&mut self, samples: &Self::History, robot: &R, device: &mut D, cycle: &CycleInfo<'_>);
 }
 
