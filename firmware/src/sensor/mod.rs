@@ -44,7 +44,7 @@ use crate::sample::{SampleReader, SampleWriter};
 use core::marker::PhantomData;
 
 /// Everything a sensor file needs: `use rri_firmware::sensor::prelude::*;`
-/// (its [`math`](super::math) too: `math::sin(x)`, the same on the host
+/// (its [`math`] too: `math::sin(x)`, the same on the host
 /// and the MCU).
 pub mod prelude {
     pub use super::{
