@@ -147,6 +147,12 @@ pub struct Root {
 pub struct Scan<'a> {
     rest: &'a [u8],
     tally: Tally,
+    /// The last long run of whitespace read ([`Scan::ws`]): where it
+    /// starts and ends, as lengths of `rest`. An attribute that is not
+    /// next rewinds to before its whitespace, and the next one expected
+    /// reads the same run again: this makes that a jump, so each run is
+    /// read once however many attributes are tried after it.
+    gap: (usize, usize),
 }
 
 impl<'a> Scan<'a> {
@@ -158,6 +164,7 @@ impl<'a> Scan<'a> {
         let mut s = Scan {
             rest: bytes,
             tally: Tally::default(),
+            gap: (usize::MAX, 0),
         };
         s.ws();
         if s.rest.first() == Some(&b'<') && s.rest.get(1) == Some(&b'?') {
@@ -395,7 +402,10 @@ impl<'a> Scan<'a> {
     /// Skips XML whitespace; whether there was any. A compact message has
     /// none (one test), an indented one a few bytes a line; a run longer
     /// than indentation (a hostile datagram may be thousands of bytes of
-    /// it) is read four bytes a turn.
+    /// it) is read four bytes a turn, once: read again from its start (an
+    /// attribute that was not next rewinds to before it), it is a jump
+    /// ([`Scan::gap`]). So the work is linear in the datagram whatever
+    /// the layout tries at each gap: at most [`INDENTATION`] bytes a try.
     #[inline(always)]
     fn ws(&mut self) -> bool {
         let before = self.rest.len();
@@ -405,17 +415,31 @@ impl<'a> Scan<'a> {
             }
             self.rest = rest;
             if before - self.rest.len() == INDENTATION {
-                self.padding();
+                self.padding(before);
                 break;
             }
         }
         self.rest.len() != before
     }
 
-    /// The rest of a long run of whitespace.
+    /// The rest of a long run of whitespace that started where `rest` was
+    /// `start` bytes long: a jump when it was read before, else read and
+    /// noted.
     #[cold]
     #[inline(never)]
-    fn padding(&mut self) {
+    fn padding(&mut self, start: usize) {
+        let (from, to) = self.gap;
+        if from == start {
+            let skip = self.rest.len().saturating_sub(to);
+            self.rest = self.rest.get(skip..).unwrap_or(&[]);
+            return;
+        }
+        self.read_padding();
+        self.gap = (start, self.rest.len());
+    }
+
+    /// Reads a run of whitespace to its end.
+    fn read_padding(&mut self) {
         while let Some((&[a, b, c, d], rest)) = self.rest.split_first_chunk::<4>() {
             if class(a) & class(b) & class(c) & class(d) & SPACE == 0 {
                 break;

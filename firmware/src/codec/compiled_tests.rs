@@ -7,7 +7,34 @@ fn scan(text: &str) -> Scan<'_> {
     Scan {
         rest: text.as_bytes(),
         tally: Tally::default(),
+        gap: (usize::MAX, 0),
     }
+}
+
+/// A long run of whitespace before attributes that are not there: every
+/// try leaves it unread (nothing consumed), the run is noted once and
+/// then jumped, and the element's end after it is found (issue 36: each
+/// try used to read the whole run again).
+#[test]
+fn a_long_gap_is_read_once_and_every_try_after_it_sees_it() {
+    let text = format!("{}\t\n{}/>", " ".repeat(3_000), " ".repeat(500));
+    let mut s = scan(&text);
+    for lit in [b" Y=\"", b" Z=\""] {
+        assert!(!s.attr(lit));
+        assert_eq!(s.rest.len(), text.len(), "nothing consumed");
+    }
+    assert_eq!(s.gap, (text.len(), 2), "the run noted: all but `/>`");
+    assert!(!s.element(1), "X1 is not there either");
+    assert_eq!(s.rest.len(), text.len());
+    assert_eq!(s.values_end(1, 18, b"</AppData>"), Some(()));
+    assert_eq!(rest(&s), "");
+    // Two long runs: the second is read, not taken for the first.
+    let two = format!("{0}X=\"1\"{0}/>", " ".repeat(20));
+    let mut t = scan(&two);
+    assert!(t.attr(b" X=\""));
+    assert_eq!(t.real(), Some(1.0));
+    assert_eq!(t.values_end(1, 18, b"</AppData>"), Some(()));
+    assert_eq!(rest(&t), "");
 }
 
 fn rest<'a>(s: &Scan<'a>) -> &'a str {

@@ -146,7 +146,28 @@ pub fn hostile() -> Vec<Input> {
         let open = "<RobData Id=\"{ID}\" Ts=\"1.202\"><AppData X1=\"1.";
         fill(open, "0", "1\"/></RobData>", max)
     };
+    // Whitespace inside a field of attributes, where each attribute the
+    // layout expects is tried after it (the review of issue 36: 348,540
+    // instructions before each run was read once).
+    let spaced_attrs = |open: &str| {
+        fill(
+            &format!("<RobData Id=\"{{ID}}\" Ts=\"1.202\"><AppData{open}"),
+            " ",
+            "/></RobData>",
+            max,
+        )
+    };
     vec![
+        Input {
+            name: "whitespace among attributes".into(),
+            text: spaced_attrs(""),
+            accepted: true,
+        },
+        Input {
+            name: "whitespace after an attribute".into(),
+            text: spaced_attrs(" X1=\"1\""),
+            accepted: true,
+        },
         Input {
             name: "whitespace padding".into(),
             text: fill(head, " ", &format!("{body}{close}"), max),
