@@ -10,6 +10,15 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::task::{Wake, Waker};
 
+/// The driver's receive waker is one static ([`RX_WAKER`]), as on the
+/// board: tests that register a waker or raise the interrupt take turns,
+/// or one test's interrupt wakes another's waker.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 #[derive(Default)]
 struct Chip {
     byte_test: u32,
@@ -170,6 +179,7 @@ fn frame(len: usize, seed: u8) -> Vec<u8> {
 
 #[test]
 fn init_resets_programs_the_mac_and_enables_the_interrupt_active_high() {
+    let _turn = one_at_a_time();
     let nic = Lan9118::new(Fake::new(), MAC).expect("init");
     let c = nic.registers().0.borrow();
     assert_eq!(c.resets, 1);
@@ -192,6 +202,7 @@ fn init_resets_programs_the_mac_and_enables_the_interrupt_active_high() {
 
 #[test]
 fn init_without_a_chip_is_a_typed_error() {
+    let _turn = one_at_a_time();
     let fake = Fake::new();
     fake.0.borrow_mut().byte_test = 0xffff_ffff;
     assert_eq!(
@@ -202,6 +213,7 @@ fn init_without_a_chip_is_a_typed_error() {
 
 #[test]
 fn frames_of_every_length_come_out_whole_without_the_crc() {
+    let _turn = one_at_a_time();
     let mut nic = Lan9118::new(Fake::new(), MAC).unwrap();
     let (_, waker) = context();
     let mut cx = Context::from_waker(&waker);
@@ -225,6 +237,7 @@ fn frames_of_every_length_come_out_whole_without_the_crc() {
 
 #[test]
 fn bad_frames_are_read_out_counted_and_skipped() {
+    let _turn = one_at_a_time();
     let mut nic = Lan9118::new(Fake::new(), MAC).unwrap();
     let (_, waker) = context();
     let mut cx = Context::from_waker(&waker);
@@ -240,6 +253,7 @@ fn bad_frames_are_read_out_counted_and_skipped() {
 
 #[test]
 fn nothing_waiting_registers_the_waker_and_the_interrupt_wakes_it() {
+    let _turn = one_at_a_time();
     let mut nic = Lan9118::new(Fake::new(), MAC).unwrap();
     let (count, waker) = context();
     let mut cx = Context::from_waker(&waker);
@@ -253,6 +267,7 @@ fn nothing_waiting_registers_the_waker_and_the_interrupt_wakes_it() {
 
 #[test]
 fn sent_frames_arrive_byte_for_byte_and_tx_status_is_drained() {
+    let _turn = one_at_a_time();
     let mut nic = Lan9118::new(Fake::new(), MAC).unwrap();
     let (_, waker) = context();
     let mut cx = Context::from_waker(&waker);
@@ -275,6 +290,7 @@ fn sent_frames_arrive_byte_for_byte_and_tx_status_is_drained() {
 
 #[test]
 fn link_comes_from_the_phy() {
+    let _turn = one_at_a_time();
     let mut nic = Lan9118::new(Fake::new(), MAC).unwrap();
     let (_, waker) = context();
     let mut cx = Context::from_waker(&waker);
@@ -285,6 +301,7 @@ fn link_comes_from_the_phy() {
 
 #[test]
 fn the_chips_dropped_frames_full_fifo_and_fill_reach_the_counters() {
+    let _turn = one_at_a_time();
     let mut nic = Lan9118::new(Fake::new(), MAC).unwrap();
     let (_, waker) = context();
     let mut cx = Context::from_waker(&waker);
