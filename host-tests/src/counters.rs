@@ -30,6 +30,7 @@ pub struct Fragments {
     pub unwanted: u64,
     pub malformed: u64,
     pub no_buffer: u64,
+    pub duplicate: u64,
     pub timed_out: u64,
     pub evicted: u64,
     pub spoiled: u64,
@@ -84,6 +85,7 @@ impl DeviceCounters {
                 unwanted: after("unwanted")?,
                 malformed: after("malformed")?,
                 no_buffer: after("no-buffer")?,
+                duplicate: after("duplicate")?,
                 timed_out: after("timed-out")?,
                 evicted: after("evicted")?,
                 spoiled: after("spoiled")?,
@@ -192,7 +194,7 @@ impl LossSplit {
 mod counter_tests {
     use super::*;
 
-    const LINE: &str = "[    3.0 INFO ] counters: received 11 answered 6 dropped foreign 1 invalid-source 1 throttled 1 decode 2 | send-errors 0 stalled 0 | lost 0 dup 0 reordered 0 timeouts 0 | latency us max 900 mean 500 | fragments 30 reassembled 8 oversize 10 unwanted 1 malformed 2 no-buffer 3 timed-out 4 evicted 5 spoiled 2 | controller-in 9 controller-incomplete 1 controller-dropped 1 | nic read rx 120 rx-dropped 7 status-full 1 fifo-max 4560";
+    const LINE: &str = "[    3.0 INFO ] counters: received 11 answered 6 dropped foreign 1 invalid-source 1 throttled 1 decode 2 | send-errors 0 stalled 0 | lost 0 dup 0 reordered 0 timeouts 0 | latency us max 900 mean 500 | fragments 30 reassembled 8 oversize 10 unwanted 1 malformed 2 no-buffer 3 duplicate 0 timed-out 4 evicted 5 spoiled 2 | controller-in 9 controller-incomplete 1 controller-dropped 1 | nic read rx 120 rx-dropped 7 status-full 1 fifo-max 4560";
 
     #[test]
     fn counter_line_parses_and_adds_up() {

@@ -128,6 +128,7 @@ pub const FAMILIES: [Family; 8] = [
             c("unwanted", |s| s.fragments.unwanted),
             c("malformed", |s| s.fragments.malformed),
             c("no_buffer", |s| s.fragments.no_buffer),
+            c("duplicate", |s| s.fragments.duplicate),
             c("timed_out", |s| s.fragments.timed_out),
             c("evicted", |s| s.fragments.evicted),
             c("spoiled", |s| s.fragments.spoiled),

@@ -543,7 +543,7 @@ fn log_counters(s: &Snapshot) {
         None => ("n/a", hal_board::NicCounters::default()),
     };
     defmt::info!(
-        "counters: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {} | fragments {} reassembled {} oversize {} unwanted {} malformed {} no-buffer {} timed-out {} evicted {} spoiled {} | controller-in {} controller-incomplete {} controller-dropped {} | nic {=str} rx {} rx-dropped {} status-full {} fifo-max {}",
+        "counters: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {} | fragments {} reassembled {} oversize {} unwanted {} malformed {} no-buffer {} duplicate {} timed-out {} evicted {} spoiled {} | controller-in {} controller-incomplete {} controller-dropped {} | nic {=str} rx {} rx-dropped {} status-full {} fifo-max {}",
         st.received,
         st.answered,
         st.dropped_foreign,
@@ -564,6 +564,7 @@ fn log_counters(s: &Snapshot) {
         fr.unwanted,
         fr.malformed,
         fr.no_buffer,
+        fr.duplicate,
         fr.timed_out,
         fr.evicted,
         fr.spoiled,

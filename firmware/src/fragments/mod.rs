@@ -26,11 +26,19 @@
 //!   (two robot cycles: fragments of one datagram arrive back to back on a
 //!   LAN, and a message whose last fragment is a cycle late is late for its
 //!   answer anyway);
+//! - a set is one (source, destination, protocol, ID), as RFC 791 has it:
+//!   a fragment of another protocol or to another address never touches
+//!   a held set;
+//! - an exact copy of a fragment already held is dropped alone
+//!   ([`FragmentDrop::Duplicate`]); only an overlap with other bytes, or a
+//!   second, different end, spoils the set ([`FragmentDrop::Malformed`]);
 //! - when both buffers are taken, a set ranks by who sent it ([`Rank`]):
 //!   the controller's (its address and port, from the first fragment)
 //!   before one that may be the controller's (its address), before a
-//!   stranger's; a newcomer takes the buffer of the lowest-ranked set
-//!   below its own, the controller's newest set the buffer of its oldest.
+//!   stranger's; a newcomer takes the buffer of the lowest-ranked set at
+//!   or below its own, the least recently used among equals (so nobody
+//!   holds a buffer by refreshing a set every few ms against the
+//!   controller's fragments, which come back to back).
 //!
 //! Every fragment dropped and every set given up is counted
 //! ([`FragmentStats`], in the engine's `Stats` and the counter line).
@@ -152,8 +160,11 @@ pub enum FragmentDrop {
     /// A broken header or checksum, a length that is not a multiple of 8
     /// in front of more fragments, an overlap or a second, different end.
     Malformed,
-    /// Every buffer holds a set that ranks as high or higher.
+    /// Every buffer holds a set that ranks higher.
     NoBuffer,
+    /// A copy of a fragment its set holds already, byte for byte (port
+    /// mirroring, a layer-2 loop): dropped alone, the set goes on.
+    Duplicate,
 }
 
 impl core::fmt::Display for FragmentDrop {
@@ -162,7 +173,8 @@ impl core::fmt::Display for FragmentDrop {
             Self::Oversize => "fragment past what the layout accepts (S5)",
             Self::Unwanted => "fragment not UDP to the device's channel port (S5)",
             Self::Malformed => "malformed or overlapping fragment (S5)",
-            Self::NoBuffer => "no reassembly buffer: every one holds a set ranked as high (S5)",
+            Self::NoBuffer => "no reassembly buffer: every one holds a set ranked higher (S5)",
+            Self::Duplicate => "a copy of a fragment already held (S5)",
         })
     }
 }
@@ -203,6 +215,8 @@ pub struct FragmentStats {
     pub malformed: u32,
     /// Fragments dropped: [`FragmentDrop::NoBuffer`].
     pub no_buffer: u32,
+    /// Fragments dropped: [`FragmentDrop::Duplicate`].
+    pub duplicate: u32,
     /// Sets given up: [`SetLoss::TimedOut`].
     pub timed_out: u32,
     /// Sets given up: [`SetLoss::Evicted`] and [`SetLoss::Superseded`].
@@ -233,6 +247,7 @@ impl FragmentStats {
         unwanted: 0,
         malformed: 0,
         no_buffer: 0,
+        duplicate: 0,
         timed_out: 0,
         evicted: 0,
         spoiled: 0,
@@ -247,6 +262,7 @@ impl FragmentStats {
             .saturating_add(self.unwanted)
             .saturating_add(self.malformed)
             .saturating_add(self.no_buffer)
+            .saturating_add(self.duplicate)
     }
 
     /// Sets given up after holding a buffer, all reasons.
@@ -262,6 +278,7 @@ impl FragmentStats {
             FragmentDrop::Unwanted => &mut self.unwanted,
             FragmentDrop::Malformed => &mut self.malformed,
             FragmentDrop::NoBuffer => &mut self.no_buffer,
+            FragmentDrop::Duplicate => &mut self.duplicate,
         };
         *c = c.saturating_add(1);
     }

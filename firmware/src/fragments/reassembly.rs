@@ -51,6 +51,9 @@ struct Slot<const BUF: usize> {
     src: [u8; 4],
     ident: u16,
     started_us: u64,
+    /// When its last fragment came: among sets of one rank, the least
+    /// recently used gives its buffer up first.
+    last_us: u64,
     /// IP payload bytes of the whole datagram; 0 until the last fragment
     /// (the one without "more fragments") came.
     total: usize,
@@ -71,6 +74,7 @@ impl<const BUF: usize> Slot<BUF> {
         src: [0; 4],
         ident: 0,
         started_us: 0,
+        last_us: 0,
         total: 0,
         end: 0,
         blocks: 0,
@@ -85,6 +89,7 @@ impl<const BUF: usize> Slot<BUF> {
         self.src = src;
         self.ident = ident;
         self.started_us = now_us;
+        self.last_us = now_us;
         self.total = 0;
         self.end = 0;
         self.blocks = 0;
@@ -96,29 +101,41 @@ impl<const BUF: usize> Slot<BUF> {
         self.busy && self.src == src && self.ident == ident
     }
 
-    /// Adds fragment `f` (of `frame`); `false` when it overlaps what is
-    /// there or contradicts the datagram's end (the caller spoils the set).
-    fn add(&mut self, f: &Fragment<'_>, frame: &[u8]) -> bool {
+    /// Adds fragment `f` (of `frame`) at `now_us`. [`Add::Conflict`] when
+    /// it overlaps what is there with other bytes, or contradicts the
+    /// datagram's end (the caller spoils the set); [`Add::Duplicate`]
+    /// when every byte of it is there already, the same (a copy of a
+    /// frame: port mirroring, a layer-2 loop), which changes nothing.
+    fn add(&mut self, f: &Fragment<'_>, frame: &[u8], now_us: u64) -> Add {
         let end = f.offset + f.payload.len();
         let (first, last) = (f.offset / BLOCK, end.div_ceil(BLOCK));
+        let mut present = 0;
         for b in first..last {
             match self.map.get(b / 64) {
                 Some(w) if w & (1 << (b % 64)) == 0 => {}
-                _ => return false,
+                Some(_) => present += 1,
+                None => return Add::Conflict,
             }
+        }
+        if present > 0 {
+            return if present == last - first && self.same(f, end) {
+                Add::Duplicate
+            } else {
+                Add::Conflict
+            };
         }
         if f.more {
             if self.total != 0 && end > self.total {
-                return false;
+                return Add::Conflict;
             }
         } else {
             if (self.total != 0 && self.total != end) || self.end > end {
-                return false;
+                return Add::Conflict;
             }
             self.total = end;
         }
         let Some(dst) = self.buf.get_mut(HEADERS + f.offset..HEADERS + end) else {
-            return false;
+            return Add::Conflict;
         };
         dst.copy_from_slice(f.payload);
         for b in first..last {
@@ -136,7 +153,24 @@ impl<const BUF: usize> Slot<BUF> {
             }
         }
         self.fragments = self.fragments.saturating_add(1);
-        true
+        self.last_us = now_us;
+        Add::Added
+    }
+
+    /// Whether fragment `f`, ending at `end`, whose blocks are all there,
+    /// is what is there: the same bytes and the same end of the datagram
+    /// (its last fragment again, or one in front of it).
+    fn same(&self, f: &Fragment<'_>, end: usize) -> bool {
+        let same_end = if f.more {
+            self.total == 0 || end <= self.total
+        } else {
+            self.total == end
+        };
+        same_end
+            && self
+                .buf
+                .get(HEADERS + f.offset..HEADERS + end)
+                .is_some_and(|held| held == f.payload)
     }
 
     fn complete(&self) -> bool {
@@ -159,6 +193,16 @@ impl<const BUF: usize> Slot<BUF> {
         }
         ETHERNET + len
     }
+}
+
+/// What [`Slot::add`] made of a fragment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Add {
+    Added,
+    /// Every byte of it was there already, the same.
+    Duplicate,
+    /// It overlaps other bytes, or contradicts the datagram's end.
+    Conflict,
 }
 
 /// An IPv4 fragment, checked: header length and checksum, lengths within
@@ -379,25 +423,27 @@ impl<const BUF: usize> Reassembler<BUF> {
         }
     }
 
-    /// A buffer for a new set of rank `rank`: a free one, else the
-    /// lowest-ranked (then oldest) set below `rank`, else, for the
-    /// controller, its own oldest set (a newer message supersedes it).
+    /// A buffer for a new set of rank `rank`: a free one, else that of
+    /// the lowest-ranked set at or below `rank`, the least recently used
+    /// among equals. So no sender holds buffers against the controller's
+    /// reordered messages (their fragments come back to back: a set
+    /// that a fragment refreshes every few ms is older than theirs), and
+    /// the controller's newest message supersedes its own stalest set.
     fn allocate(&mut self, rank: Rank) -> Option<usize> {
         if let Some(free) = self.slots.iter().position(|s| !s.busy) {
             return Some(free);
         }
-        let oldest = |below: bool| {
-            self.slots
-                .iter()
-                .enumerate()
-                .filter(|(_, s)| if below { s.rank < rank } else { s.rank == rank })
-                .min_by_key(|(_, s)| (s.rank, s.started_us))
-                .map(|(i, _)| i)
-        };
-        let (victim, reason) = match oldest(true) {
-            Some(v) => (v, SetLoss::Evicted),
-            None if rank == Rank::Controller => (oldest(false)?, SetLoss::Superseded),
-            None => return None,
+        let (victim, victim_rank) = self
+            .slots
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.rank <= rank)
+            .min_by_key(|(_, s)| (s.rank, s.last_us))
+            .map(|(i, s)| (i, s.rank))?;
+        let reason = if victim_rank == Rank::Controller {
+            SetLoss::Superseded
+        } else {
+            SetLoss::Evicted
         };
         self.lose(victim, reason);
         Some(victim)
@@ -437,10 +483,13 @@ impl<const BUF: usize> Reassembler<BUF> {
         self.stats.fragments = self.stats.fragments.saturating_add(1);
         self.changed = true;
         self.expire(now_us);
-        let held = self.slots.iter().position(|s| s.holds(f.src, f.ident));
+        // A set is one (source, destination, protocol, ID) (RFC 791): only
+        // UDP to the device is ever kept, so a fragment for another
+        // protocol or address is no part of any held set, whatever its ID.
         if f.dst != channel.device || f.protocol != UDP {
-            return self.drop_fragment(FragmentDrop::Unwanted, held);
+            return self.drop_fragment(FragmentDrop::Unwanted, None);
         }
+        let held = self.slots.iter().position(|s| s.holds(f.src, f.ident));
         if f.offset + f.payload.len() > BUF - HEADERS {
             return self.drop_fragment(FragmentDrop::Oversize, held);
         }
@@ -491,8 +540,11 @@ impl<const BUF: usize> Reassembler<BUF> {
         let Some(s) = self.slots.get_mut(slot) else {
             return self.drop_fragment(FragmentDrop::NoBuffer, None);
         };
-        if !s.add(&f, frame) {
-            return self.drop_fragment(FragmentDrop::Malformed, Some(slot));
+        match s.add(&f, frame, now_us) {
+            Add::Added => {}
+            // A copy changes nothing: dropped alone, the set goes on.
+            Add::Duplicate => return self.drop_fragment(FragmentDrop::Duplicate, None),
+            Add::Conflict => return self.drop_fragment(FragmentDrop::Malformed, Some(slot)),
         }
         if !s.complete() {
             return Verdict::Held;

@@ -250,12 +250,15 @@ fn malformed_fragments_are_dropped_and_spoil_their_set() {
         );
         assert_eq!(r.held(), 0);
     }
-    // Overlap: a second copy of bytes already held spoils the set (as
-    // Linux does since FragmentSmack), so does a second, different end.
+    // Overlap: other bytes where bytes are held spoil the set (as Linux
+    // does since FragmentSmack), so does a second, different end.
     let mut r = R::new();
     assert_eq!(r.accept(&frags[0], 0, CHANNEL, PEER), Verdict::Held);
+    let mut other_bytes = frags[0].clone();
+    let last = other_bytes.len() - 1;
+    other_bytes[last] ^= 1;
     assert_eq!(
-        r.accept(&frags[0], 0, CHANNEL, PEER),
+        r.accept(&other_bytes, 0, CHANNEL, PEER),
         Verdict::Dropped(FragmentDrop::Malformed)
     );
     assert_eq!(
@@ -309,26 +312,25 @@ fn the_controller_wins_a_buffer_over_strangers_and_over_its_own_older_set() {
     let mut r = R::new();
     let stranger = |ident| cut(STRANGER, ident, &udp(40000, PORT, 3000), 1480);
     let other_port = |ident| cut(ROBOT, ident, &udp(ROBOT_PORT + 1, PORT, 3000), 1480);
-    // Strangers hold both buffers; another stranger is refused.
+    // Strangers hold both buffers; another stranger takes the buffer of
+    // the one least recently heard from.
     assert_eq!(r.accept(&stranger(1)[0], 0, CHANNEL, PEER), Verdict::Held);
     assert_eq!(r.accept(&stranger(2)[0], 10, CHANNEL, PEER), Verdict::Held);
-    assert_eq!(
-        r.accept(&stranger(3)[0], 20, CHANNEL, PEER),
-        Verdict::Dropped(FragmentDrop::NoBuffer)
-    );
+    assert_eq!(r.accept(&stranger(3)[0], 20, CHANNEL, PEER), Verdict::Held);
+    assert_eq!(r.stats().evicted, 1);
     // The controller's address (another port, or fragments before the
     // first) ranks above a stranger: it takes the oldest stranger's buffer.
     assert_eq!(
         r.accept(&other_port(4)[0], 30, CHANNEL, PEER),
         Verdict::Held
     );
-    assert_eq!(r.stats().evicted, 1);
+    assert_eq!(r.stats().evicted, 2);
     // The controller itself takes the other stranger's.
     let robot = |ident| cut(ROBOT, ident, &udp(ROBOT_PORT, PORT, 2000), 1480);
     assert_eq!(r.accept(&robot(5)[0], 40, CHANNEL, PEER), Verdict::Held);
     // Then the other port's, not its own.
     assert_eq!(r.accept(&robot(6)[0], 50, CHANNEL, PEER), Verdict::Held);
-    assert_eq!((r.stats().evicted, r.stats().controller_dropped), (3, 0));
+    assert_eq!((r.stats().evicted, r.stats().controller_dropped), (4, 0));
     // Both buffers are the controller's: its newest message supersedes
     // its oldest incomplete one; nobody else gets in.
     assert_eq!(
@@ -339,7 +341,7 @@ fn the_controller_wins_a_buffer_over_strangers_and_over_its_own_older_set() {
     let s = r.stats();
     assert_eq!(
         (s.evicted, s.controller_incomplete, s.controller_dropped),
-        (4, 1, 0)
+        (5, 1, 0)
     );
     // And both of its newest sets still complete.
     let got = feed(
@@ -463,4 +465,139 @@ fn the_controller_is_the_peer_else_the_pinned_address_else_anyone() {
     assert!(c.sent(STRANGER, 1) && !c.from_address(ROBOT));
     assert!(Controller::of(None, None).sent(ROBOT, 9));
     assert!(PEER.from_address(ROBOT) && !PEER.sent(ROBOT, ROBOT_PORT + 1));
+}
+
+/// An exact copy of a fragment (port mirroring, a layer-2 loop) is
+/// dropped alone and counted; the set goes on and completes (issue 36).
+#[test]
+fn an_exact_duplicate_is_dropped_alone() {
+    let mut r = R::new();
+    let frags = cut(ROBOT, 9, &udp(ROBOT_PORT, PORT, 3557), 1480);
+    for (i, f) in frags.iter().enumerate().take(2) {
+        assert_eq!(r.accept(f, 0, CHANNEL, PEER), Verdict::Held);
+        assert_eq!(
+            r.accept(f, 1, CHANNEL, PEER),
+            Verdict::Dropped(FragmentDrop::Duplicate),
+            "copy of fragment {i}"
+        );
+    }
+    assert_eq!(feed(&mut r, &frags[2..], 2, PEER).len(), 1);
+    let s = r.stats();
+    assert_eq!(
+        (
+            s.duplicate,
+            s.spoiled,
+            s.controller_dropped,
+            s.controller_datagrams
+        ),
+        (2, 0, 0, 1)
+    );
+    // The last fragment twice, in front of the others: the same.
+    let frags = cut(ROBOT, 10, &udp(ROBOT_PORT, PORT, 3557), 1480);
+    assert_eq!(r.accept(&frags[2], 3, CHANNEL, PEER), Verdict::Held);
+    assert_eq!(
+        r.accept(&frags[2], 3, CHANNEL, PEER),
+        Verdict::Dropped(FragmentDrop::Duplicate)
+    );
+    assert_eq!(feed(&mut r, &frags[..2], 4, PEER).len(), 1);
+}
+
+/// A set is one (source, destination, protocol, ID): an ICMP fragment, or
+/// one to another address, from the controller's host with a robot
+/// message's ID is dropped as unwanted and leaves the set alone (issue 36:
+/// it used to spoil it, a loss counted nowhere as the controller's).
+#[test]
+fn one_id_shared_across_protocols_and_addresses_spoils_nothing() {
+    let mut r = R::new();
+    let frags = cut(ROBOT, 11, &udp(ROBOT_PORT, PORT, 3000), 1480);
+    assert_eq!(r.accept(&frags[0], 0, CHANNEL, PEER), Verdict::Held);
+    let icmp = frame(ROBOT, 11, 1, 1480, true, &[0; 16]);
+    let mut broadcast = frame(ROBOT, 11, 17, 1480, false, &[0; 16]);
+    broadcast[30..34].copy_from_slice(&[10, 49, 65, 255]);
+    broadcast[24..26].copy_from_slice(&[0, 0]);
+    let sum = checksum(&broadcast[14..34]);
+    broadcast[24..26].copy_from_slice(&sum.to_be_bytes());
+    for f in [&icmp, &broadcast] {
+        assert_eq!(
+            r.accept(f, 1, CHANNEL, PEER),
+            Verdict::Dropped(FragmentDrop::Unwanted)
+        );
+        assert_eq!(r.held(), 1, "the robot's set is still held");
+    }
+    assert_eq!(feed(&mut r, &frags[1..], 2, PEER).len(), 1);
+    assert_eq!((r.stats().spoiled, r.stats().unwanted), (0, 2));
+}
+
+/// Fragments whose IPv4 header carries options (IHL > 5) are put
+/// together like any other: the whole datagram gets a plain header.
+#[test]
+fn fragments_with_ip_options_are_reassembled() {
+    let datagram = udp(ROBOT_PORT, PORT, 3000);
+    let with_options = |f: &Vec<u8>| {
+        // Four bytes of options (NOP NOP NOP EOL) after the 20 of the
+        // header: IHL 6, the total length and the checksum again.
+        let mut o = f[..34].to_vec();
+        o.extend_from_slice(&[1, 1, 1, 0]);
+        o.extend_from_slice(&f[34..]);
+        o[14] = 0x46;
+        let total = u16::from_be_bytes([o[16], o[17]]) + 4;
+        o[16..18].copy_from_slice(&total.to_be_bytes());
+        o[24..26].copy_from_slice(&[0, 0]);
+        let sum = checksum(&o[14..38]);
+        o[24..26].copy_from_slice(&sum.to_be_bytes());
+        o
+    };
+    let frags: Vec<Vec<u8>> = cut(ROBOT, 12, &datagram, 1480)
+        .iter()
+        .map(with_options)
+        .collect();
+    let mut r = R::new();
+    let got = feed(&mut r, &frags, 0, PEER);
+    assert_eq!(got, vec![datagram]);
+}
+
+/// The review's attack on buffers (issue 36, item 4), sustained: from
+/// the controller's address at another port, a tail fragment with a
+/// fresh ID every 7 ms (each ranks "likely", as a reordered robot message
+/// does, and would hold a buffer for 8 ms); meanwhile every 4 ms the
+/// controller's message arrives last fragment first. Not one of the
+/// controller's messages may be lost.
+#[test]
+fn tail_fragments_every_7_ms_never_keep_the_controllers_reordered_messages_out() {
+    let mut r = R::new();
+    let mut got = 0;
+    let mut attack_ident = 20_000u16;
+    let mut next_attack = 0u64;
+    let cycles = 2_000u64;
+    for cycle in 0..cycles {
+        let t = cycle * 4_000;
+        // The attacker's tail fragments due before this message.
+        while next_attack <= t {
+            let tail = frame(ROBOT, attack_ident, 17, 1480, false, &[0xa5; 200]);
+            r.accept(&tail, next_attack, CHANNEL, PEER);
+            attack_ident = attack_ident.wrapping_add(1);
+            next_attack += 7_000;
+        }
+        let ident = (cycle % 10_000) as u16;
+        let frags = cut(ROBOT, ident, &udp(ROBOT_PORT, PORT, 3000), 1480);
+        // Last fragment first, the others back to back (µs apart).
+        let order = [2, 0, 1];
+        for (k, &i) in order.iter().enumerate() {
+            if let Verdict::Complete { .. } = r.accept(&frags[i], t + k as u64 * 100, CHANNEL, PEER)
+            {
+                got += 1;
+            }
+        }
+    }
+    let s = r.stats();
+    assert_eq!(got, cycles, "{s:?}");
+    assert_eq!(
+        (s.controller_dropped, s.controller_incomplete),
+        (0, 0),
+        "{s:?}"
+    );
+    assert!(
+        s.evicted > 0,
+        "the attacker's sets gave their buffers up: {s:?}"
+    );
 }
