@@ -43,6 +43,7 @@
 //! Every fragment dropped and every set given up is counted
 //! ([`FragmentStats`], in the engine's `Stats` and the counter line).
 
+mod frame;
 mod reassembly;
 pub use reassembly::{Reassembler, Verdict};
 
@@ -303,5 +304,7 @@ impl FragmentStats {
 mod link;
 pub use link::{Hold, Link, HOLD_MAX_US};
 
+#[cfg(test)]
+mod fair_tests;
 #[cfg(test)]
 mod tests;

@@ -3,21 +3,14 @@
 //! units, overlaps), work bounded by the frame's length, buffers fixed at
 //! build time.
 
+use super::frame::{
+    be16, checksum, classify, put16, udp_ports, Fragment, Frame, BLOCK, ETHERNET, IPV4, UDP,
+};
 use super::{
     Channel, Controller, FragmentDrop, FragmentStats, Rank, SetLoss, HEADERS, SLOTS, TIMEOUT_US,
     UDP_HEADER,
 };
 
-const ETHERTYPE_IPV4: u16 = 0x0800;
-const ETHERNET: usize = 14;
-const IPV4: usize = 20;
-const UDP: u8 = 17;
-/// IPv4 flags and fragment offset: "more fragments", the offset in 8-byte
-/// units.
-const MORE_FRAGMENTS: u16 = 0x2000;
-const OFFSET_UNITS: u16 = 0x1fff;
-/// Coverage is kept per 8-byte block (fragment offsets count in them).
-const BLOCK: usize = 8;
 const MAP_WORDS: usize = 16;
 /// Blocks a buffer's coverage map records.
 pub(super) const MAP_BLOCKS: usize = MAP_WORDS * 64;
@@ -203,122 +196,6 @@ enum Add {
     Duplicate,
     /// It overlaps other bytes, or contradicts the datagram's end.
     Conflict,
-}
-
-/// An IPv4 fragment, checked: header length and checksum, lengths within
-/// the frame, a non-empty payload that is a multiple of 8 bytes in front
-/// of more fragments.
-struct Fragment<'a> {
-    src: [u8; 4],
-    dst: [u8; 4],
-    ident: u16,
-    protocol: u8,
-    more: bool,
-    /// In bytes.
-    offset: usize,
-    payload: &'a [u8],
-}
-
-/// What a frame is, read without trusting it.
-enum Frame<'a> {
-    /// Not IPv4, or IPv4 that is not a fragment.
-    Whole,
-    Fragment(Fragment<'a>),
-    /// IPv4 with the fragment bits set, but broken.
-    Broken,
-}
-
-fn be16(b: &[u8], i: usize) -> Option<u16> {
-    Some(u16::from_be_bytes([*b.get(i)?, *b.get(i + 1)?]))
-}
-
-fn put16(b: &mut [u8], i: usize, v: u16) {
-    if let Some(d) = b.get_mut(i..i + 2) {
-        d.copy_from_slice(&v.to_be_bytes());
-    }
-}
-
-fn ip4(b: &[u8], i: usize) -> Option<[u8; 4]> {
-    b.get(i..i + 4)?.try_into().ok()
-}
-
-/// The Internet checksum of `b` (0 over a header whose checksum is right).
-fn checksum(b: &[u8]) -> u16 {
-    let mut sum: u32 = 0;
-    let mut words = b.chunks_exact(2);
-    for w in &mut words {
-        if let [hi, lo] = w {
-            sum += u32::from(u16::from_be_bytes([*hi, *lo]));
-        }
-    }
-    if let [last] = words.remainder() {
-        sum += u32::from(*last) << 8;
-    }
-    while sum > 0xffff {
-        sum = (sum & 0xffff) + (sum >> 16);
-    }
-    !(sum as u16)
-}
-
-fn classify(frame: &[u8]) -> Frame<'_> {
-    if be16(frame, 12) != Some(ETHERTYPE_IPV4) {
-        return Frame::Whole;
-    }
-    let (Some(&vihl), Some(flags)) = (frame.get(ETHERNET), be16(frame, ETHERNET + 6)) else {
-        return Frame::Whole;
-    };
-    let more = flags & MORE_FRAGMENTS != 0;
-    let offset = usize::from(flags & OFFSET_UNITS) * 8;
-    if vihl >> 4 != 4 || (!more && offset == 0) {
-        // Not IPv4 (the stack drops it) or not a fragment.
-        return Frame::Whole;
-    }
-    fragment(frame, vihl, more, offset).map_or(Frame::Broken, Frame::Fragment)
-}
-
-fn fragment(frame: &[u8], vihl: u8, more: bool, offset: usize) -> Option<Fragment<'_>> {
-    let ihl = usize::from(vihl & 0x0f) * 4;
-    let total = usize::from(be16(frame, ETHERNET + 2)?);
-    if ihl < IPV4 || total < ihl {
-        return None;
-    }
-    let header = frame.get(ETHERNET..ETHERNET + ihl)?;
-    if checksum(header) != 0 {
-        return None;
-    }
-    let payload = frame.get(ETHERNET + ihl..ETHERNET + total)?;
-    if payload.is_empty() || (more && payload.len() % BLOCK != 0) {
-        return None;
-    }
-    Some(Fragment {
-        src: ip4(frame, ETHERNET + 12)?,
-        dst: ip4(frame, ETHERNET + 16)?,
-        ident: be16(frame, ETHERNET + 4)?,
-        protocol: *frame.get(ETHERNET + 9)?,
-        more,
-        offset,
-        payload,
-    })
-}
-
-/// UDP source and destination port of a whole IPv4 datagram to `device`.
-fn udp_ports(frame: &[u8], device: [u8; 4]) -> Option<([u8; 4], u16, u16)> {
-    if be16(frame, 12)? != ETHERTYPE_IPV4 || *frame.get(ETHERNET + 9)? != UDP {
-        return None;
-    }
-    if ip4(frame, ETHERNET + 16)? != device {
-        return None;
-    }
-    let ihl = usize::from(frame.get(ETHERNET)? & 0x0f) * 4;
-    if ihl < IPV4 {
-        return None;
-    }
-    let udp = ETHERNET + ihl;
-    Some((
-        ip4(frame, ETHERNET + 12)?,
-        be16(frame, udp)?,
-        be16(frame, udp + 2)?,
-    ))
 }
 
 /// IPv4 reassembly under S5 (see the [module](super)), in [`SLOTS`]
