@@ -28,6 +28,7 @@
 mod report;
 mod run;
 mod scrape;
+mod scraped;
 mod user_corpus;
 
 use clap::Parser;
