@@ -36,11 +36,12 @@ use host_tests::counters::{DeviceCounters, LossSplit};
 use host_tests::qemu::{self, Boot, Qemu};
 use host_tests::qemu_bench::{self as qb, Input, Record};
 use host_tests::robot::report::Summary;
-use run::{drive, finish, last_counters, measure, records, wait_for_stack, Driven};
-use std::net::{SocketAddr, UdpSocket};
+use run::{
+    booted, corpus_socket, drive, finish, last_counters, measure, records, wait_for_stack, Driven,
+};
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Duration;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -166,13 +167,8 @@ fn floor(
         host_port: qemu::free_port()?,
         ..boot.clone()
     };
-    let mut board = Qemu::boot(&floor_boot)?;
-    board.wait_for("state CONNECTED", Duration::from_secs(30))?;
-    let to = SocketAddr::from(([127, 0, 0, 1], floor_boot.host_port));
-    let socket = UdpSocket::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
-    socket
-        .set_read_timeout(Some(Duration::from_millis(50)))
-        .map_err(|e| e.to_string())?;
+    let (board, to) = booted(&floor_boot)?;
+    let socket = corpus_socket()?;
     let ws = host_tests::workspace();
     let mut inputs = qb::realistic(&host_tests::shared_rri(), &ws.join("host-tests/bench"))?;
     inputs.extend(qb::hostile());
@@ -217,9 +213,7 @@ fn counted(
     println!(
         "== booting with -icount shift={SHIFT} ({INSTRUCTIONS_PER_COUNT} instructions per count)"
     );
-    let mut board = Qemu::boot(boot)?;
-    board.wait_for("state CONNECTED", Duration::from_secs(30))?;
-    let to = SocketAddr::from(([127, 0, 0, 1], boot.host_port));
+    let (board, to) = booted(boot)?;
 
     // 1. The codec comparison ran at boot.
     let codec = board
@@ -297,10 +291,7 @@ fn phase(
         .skip(1)
         .collect();
     let ws = host_tests::workspace();
-    let socket = UdpSocket::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
-    socket
-        .set_read_timeout(Some(Duration::from_millis(50)))
-        .map_err(|e| e.to_string())?;
+    let socket = corpus_socket()?;
     let mut next_id = first_id + sim.summary.sent as u32 + 1000;
     let mut rows = |inputs: Vec<Input>| -> Result<Vec<(Input, Vec<Record>)>, String> {
         inputs
@@ -342,9 +333,7 @@ fn flood(
         host_port: qemu::free_port()?,
         ..boot.clone()
     };
-    let to = SocketAddr::from(([127, 0, 0, 1], flood_boot.host_port));
-    let mut board = Qemu::boot(&flood_boot)?;
-    board.wait_for("state CONNECTED", Duration::from_secs(30))?;
+    let (board, to) = booted(&flood_boot)?;
     println!(
         "== robot simulator in real time: {} cycles every 4 ms, flood from a second port every {} µs, in turn: {}",
         args.cycles,

@@ -3,7 +3,7 @@
 //! counters, stack).
 
 use host_tests::counters::DeviceCounters;
-use host_tests::qemu::Qemu;
+use host_tests::qemu::{Boot, Qemu};
 use host_tests::qemu_bench::{self as qb, Input, Record};
 use host_tests::robot::report::Summary;
 use host_tests::robot::{run, RobotOptions};
@@ -11,6 +11,23 @@ use std::net::{SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+
+/// Boots `boot` and waits for the device to come up: the board and where
+/// its channel port is forwarded on 127.0.0.1.
+pub fn booted(boot: &Boot) -> Result<(Qemu, SocketAddr), String> {
+    let mut board = Qemu::boot(boot)?;
+    board.wait_for("state CONNECTED", Duration::from_secs(30))?;
+    Ok((board, SocketAddr::from(([127, 0, 0, 1], boot.host_port))))
+}
+
+/// The socket [`measure`] sends corpus messages from.
+pub fn corpus_socket() -> Result<UdpSocket, String> {
+    let socket = UdpSocket::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
+    socket
+        .set_read_timeout(Some(Duration::from_millis(50)))
+        .map_err(|e| e.to_string())?;
+    Ok(socket)
+}
 
 /// What one simulator run gave.
 pub struct Driven {

@@ -5,13 +5,11 @@
 //! `-icount`, `--repeat` times, with a fresh Id each time; per message the
 //! compute and full-path instructions, and the costliest named.
 
-use crate::run::{finish, measure};
+use crate::run::{booted, corpus_socket, finish, measure};
 use crate::{instructions, Args, CYCLE_AT_216MHZ, SHIFT};
-use host_tests::qemu::{self, Boot, Qemu};
+use host_tests::qemu::{self, Boot};
 use host_tests::qemu_bench::{templated, Input, Record};
-use std::net::{SocketAddr, UdpSocket};
 use std::path::Path;
-use std::time::Duration;
 
 /// The hostile budget (a quarter of a cycle at 216 MHz): a message of
 /// the user's that costs more is reported as over it.
@@ -88,13 +86,8 @@ pub fn run(args: &Args, dir: &Path) -> Result<bool, String> {
         icount_shift: Some(SHIFT),
         http_port: None,
     };
-    let mut board = Qemu::boot(&boot)?;
-    board.wait_for("state CONNECTED", Duration::from_secs(30))?;
-    let to = SocketAddr::from(([127, 0, 0, 1], boot.host_port));
-    let socket = UdpSocket::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
-    socket
-        .set_read_timeout(Some(Duration::from_millis(50)))
-        .map_err(|e| e.to_string())?;
+    let (board, to) = booted(&boot)?;
+    let socket = corpus_socket()?;
     let mut next_id = 1000;
     // The first datagram waits for ARP through slirp: not measured.
     if let Some((first, _)) = inputs.iter().find(|(i, _)| i.accepted) {
