@@ -578,16 +578,38 @@ fn sensor_host_blames_the_address_where_it_came_from() {
     assert!(!stderr.contains("configured"), "{stderr}");
 }
 
-/// The README's example outputs go under target/, and outputs written into
-/// the checkout's root are ignored by git.
+/// The READMEs' example outputs go under target/, and outputs written into
+/// the checkout's root are ignored by git. The top-level README is the short
+/// door (at most 400 lines) and each crate's README holds its long guides.
 #[test]
 fn example_outputs_stay_out_of_the_checkout() {
-    let readme =
-        std::fs::read_to_string(host_tests::workspace().join("README.md")).expect("README");
-    for line in readme.lines().filter(|l| l.starts_with("cargo robot ")) {
-        for flag in ["--plot ", "--csv ", "--pcap ", "--json "] {
-            if let Some(rest) = line.split(flag).nth(1) {
-                assert!(rest.starts_with("target/"), "{line}");
+    let workspace = host_tests::workspace();
+    let door = std::fs::read_to_string(workspace.join("README.md")).expect("README.md");
+    let lines = door.lines().count();
+    assert!(
+        lines <= 400,
+        "README.md has {lines} lines: the door is at most 400"
+    );
+    for guide in [
+        "firmware/README.md",
+        "hal-board/README.md",
+        "host-tests/README.md",
+    ] {
+        assert!(workspace.join(guide).is_file(), "{guide} is missing");
+    }
+    for path in [
+        "README.md",
+        "firmware/README.md",
+        "hal-board/README.md",
+        "host-tests/README.md",
+        "firmware/rri-diag/README.md",
+    ] {
+        let readme = std::fs::read_to_string(workspace.join(path)).expect(path);
+        for line in readme.lines().filter(|l| l.starts_with("cargo robot ")) {
+            for flag in ["--plot ", "--csv ", "--pcap ", "--json "] {
+                if let Some(rest) = line.split(flag).nth(1) {
+                    assert!(rest.starts_with("target/"), "{path}: {line}");
+                }
             }
         }
     }
