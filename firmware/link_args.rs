@@ -22,17 +22,22 @@ fn mcu_link_args(workspace: &std::path::Path, has_bins: bool) {
 }
 
 /// `.cargo/flip-link-or-lld` links through flip-link when it is installed
-/// (stack overflow faults instead of corrupting statics) and through plain
-/// rust-lld otherwise: say which, so a build without the protection is
-/// never silent.
+/// (the stack below the statics: an overflow runs off RAM) and through
+/// plain rust-lld otherwise, or when `RRI_LINK_WITHOUT_FLIP_LINK` is set.
+/// Either way the board's MPU guard at the stack's end makes an overflow
+/// fault (hal-board's `stack_guard`); say which layout, so the choice is
+/// never silent. The variable is tracked so that setting it relinks.
 fn flip_link_notice() {
     println!("cargo:rerun-if-env-changed=PATH");
+    println!("cargo:rerun-if-env-changed=RRI_LINK_WITHOUT_FLIP_LINK");
     let found = std::env::var_os("PATH").is_some_and(|paths| {
         std::env::split_paths(&paths).any(|dir| dir.join("flip-link").is_file())
     });
-    if !found {
+    let refused = std::env::var_os("RRI_LINK_WITHOUT_FLIP_LINK").is_some_and(|v| !v.is_empty());
+    if !found || refused {
         println!(
-            "cargo::warning=flip-link is not installed: linking without stack overflow protection (install it with `cargo install flip-link`)"
+            "cargo::warning=linking with rust-lld, not flip-link{}: the stack sits above the statics, guarded by 256 bytes of MPU region only (a single frame larger than that could jump it); `cargo install flip-link` puts the stack below them",
+            if refused { " (RRI_LINK_WITHOUT_FLIP_LINK)" } else { " (not installed)" }
         );
     }
 }

@@ -1,56 +1,73 @@
-//! The HardFault handler, the same on every board: it logs where the fault
-//! happened and why, then resets the board.
+//! The fault handlers, the same on every board: they log where the fault
+//! happened and why, then reset the board.
 //!
 //! cortex-m-rt's default handler loops forever: a fault before the
 //! watchdog starts would hang the board silently, and one after it would
 //! end in a watchdog reset with nothing in the log. Here every fault (the
-//! configurable ones escalate to HardFault: they are not enabled) logs the
-//! stacked PC, LR and xPSR and the fault status registers, then resets as
-//! the board does (`board::reset`: after the log has had time to leave,
-//! on the NUCLEO boards).
+//! configurable ones escalate to HardFault: they are not enabled, but for
+//! MemManage, which the stack guard raises) logs the stacked PC, LR and
+//! xPSR and the fault status registers, then resets as the board does
+//! (`board::reset`: after the log has had time to leave, on the NUCLEO
+//! boards). A stack overflow is logged and kept as one. The entry and the
+//! handler are in [`crate::stack_guard`]: the entry moves the stack
+//! pointer off the guard before any Rust code runs.
 //!
 //! The PC and LR are also kept across the reset
 //! ([`crate::reset`]): the next start reports them (the diagnostics
 //! page's "last reset").
 //!
 //! What it cannot catch: a fault while the core stacks the exception
-//! frame for HardFault itself (a stack overflow past the bottom of RAM,
-//! which flip-link's layout turns into a fault) locks the core up; the
+//! frame for HardFault itself (a single frame that jumps past the guard
+//! and below RAM, under flip-link's layout) locks the core up; the
 //! watchdog, once running, resets it.
 //!
-//! The `fault-selftest` feature makes the board execute an undefined
-//! instruction at the end of its `init`, so that `cargo hil -- --fault`
-//! can check the handler end to end (on QEMU in CI, on a NUCLEO by hand):
-//! once, unless the last reset was that HardFault, so that the start
-//! after it goes on and logs what the crash record kept across the reset
-//! (`hal_board::reset`).
+//! The `fault-selftest` feature checks the handlers end to end (`cargo
+//! hil -- --fault`: on QEMU in CI, on a NUCLEO by hand), one start at a
+//! time, each reading what the crash record kept across the last reset
+//! (`hal_board::reset`): an undefined instruction at the end of `init`;
+//! after that HardFault, a recursion until the stack reaches its guard;
+//! after that overflow, the firmware goes on.
 #![allow(unsafe_code)]
 
-use cortex_m_rt::{exception, ExceptionFrame};
+use crate::reset::{Cause, Report};
 
-#[exception]
-unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
-    // SAFETY: reads of the System Control Block's fault status registers,
-    // which nothing else writes.
-    let scb = unsafe { &*cortex_m::peripheral::SCB::PTR };
-    defmt::error!(
-        "HardFault at PC {=u32:#010x} LR {=u32:#010x} xPSR {=u32:#010x}: CFSR {=u32:#010x} HFSR {=u32:#010x} MMFAR {=u32:#010x} BFAR {=u32:#010x}; resetting",
-        frame.pc(),
-        frame.lr(),
-        frame.xpsr(),
-        scb.cfsr.read(),
-        scb.hfsr.read(),
-        scb.mmfar.read(),
-        scb.bfar.read()
-    );
-    crate::reset::ram::note(&mut |r| r.fault(frame.pc(), frame.lr()));
-    crate::board::reset()
+/// Logs why the board started (the crash record `crate::reset` kept
+/// across the reset: a fault's PC, a panic's file and line).
+pub fn log_reset(r: &Report) {
+    let cause = r.cause.name();
+    match r.pc {
+        Some((pc, lr)) if pc != 0 => defmt::warn!(
+            "last reset: {=str} at PC {=u32:#010x} LR {=u32:#010x} (start {=u32})",
+            cause,
+            pc,
+            lr,
+            r.boots
+        ),
+        // A stack overflow whose frame could not be stacked.
+        Some(_) => defmt::warn!(
+            "last reset: {=str}, PC unknown (start {=u32})",
+            cause,
+            r.boots
+        ),
+        None => defmt::info!("last reset: {=str} (start {=u32})", cause, r.boots),
+    }
 }
 
-/// Executes a permanently undefined instruction (the boards call it at the
-/// end of `init` with the `fault-selftest` feature, unless they start
-/// after a HardFault).
-pub fn selftest() -> ! {
-    defmt::warn!("fault self-test: executing an undefined instruction");
-    cortex_m::asm::udf()
+/// The `fault-selftest` feature's step for a start after `last` (the
+/// boards call it at the end of `init`): returns only after the stack
+/// overflow's start.
+pub fn selftest(last: &Report) {
+    match last.cause {
+        Cause::StackOverflow => {}
+        Cause::HardFault => {
+            // The firmware logs the last reset after `init`: this start
+            // ends before, so it says it here.
+            log_reset(last);
+            crate::stack_guard::overflow_selftest()
+        }
+        _ => {
+            defmt::warn!("fault self-test: executing an undefined instruction");
+            cortex_m::asm::udf()
+        }
+    }
 }

@@ -33,6 +33,7 @@ pub mod mac;
 pub mod mpu;
 pub mod reset;
 pub mod rx_ring;
+pub mod stack_guard;
 
 /// What the network chip itself counted on the receive side, for the
 /// firmware's counter line and the diagnostics: frames it lost before the

@@ -121,6 +121,7 @@ pub fn init() -> Result<Board, InitError> {
     // SAFETY: called once at start-up, before any task exists; nothing
     // else owns the core peripherals.
     let mut cp = unsafe { cortex_m::Peripherals::steal() };
+    crate::stack_guard::arm(&mut cp);
     time::start(&mut cp.SYST);
     // SAFETY: priorities are set before the interrupts are unmasked.
     unsafe {
@@ -133,8 +134,8 @@ pub fn init() -> Result<Board, InitError> {
     NVIC::unpend(LAN9118_IRQ);
     // SAFETY: the handler (below) is ready and the NIC's line is active-high.
     unsafe { NVIC::unmask(LAN9118_IRQ) };
-    if cfg!(feature = "fault-selftest") && reset.cause != crate::reset::Cause::HardFault {
-        crate::fault::selftest();
+    if cfg!(feature = "fault-selftest") {
+        crate::fault::selftest(&reset);
     }
     Ok(Board {
         net,

@@ -20,6 +20,24 @@ pub enum RegionError {
 /// size)`: TEX = 001, C = 0, B = 0 (normal, non-cacheable), S = 1, full
 /// access at any privilege, execute never.
 pub fn non_cacheable(number: u32, base: u32, size: u32) -> Result<(u32, u32), RegionError> {
+    region(number, base, size, AP_FULL)
+}
+
+/// `MPU_RBAR` and `MPU_RASR` for a stack guard: region `number` over
+/// `[base, base + size)`, attributes as [`non_cacheable`] but read-only at
+/// any privilege. A write into it is a MemManage fault (DACCVIOL, or
+/// MSTKERR when the core stacks an exception frame into it); reads stay
+/// allowed so a fault handler may look at what is there.
+pub fn read_only(number: u32, base: u32, size: u32) -> Result<(u32, u32), RegionError> {
+    region(number, base, size, AP_READ_ONLY)
+}
+
+/// Access permissions (RASR.AP, bits 26..24): read/write, and read-only,
+/// at both privileges.
+const AP_FULL: u32 = 0b011 << 24;
+const AP_READ_ONLY: u32 = 0b110 << 24;
+
+fn region(number: u32, base: u32, size: u32, access: u32) -> Result<(u32, u32), RegionError> {
     if !size.is_power_of_two() || size < 32 {
         return Err(RegionError::Size);
     }
@@ -31,7 +49,6 @@ pub fn non_cacheable(number: u32, base: u32, size: u32) -> Result<(u32, u32), Re
     }
     const VALID: u32 = 1 << 4;
     const XN: u32 = 1 << 28;
-    const AP_FULL: u32 = 0b011 << 24;
     const TEX_001: u32 = 0b001 << 19;
     const SHAREABLE: u32 = 1 << 18;
     const ENABLE: u32 = 1;
@@ -39,7 +56,7 @@ pub fn non_cacheable(number: u32, base: u32, size: u32) -> Result<(u32, u32), Re
     let size_field = size.trailing_zeros() - 1;
     Ok((
         base | VALID | number,
-        XN | AP_FULL | TEX_001 | SHAREABLE | (size_field << 1) | ENABLE,
+        XN | access | TEX_001 | SHAREABLE | (size_field << 1) | ENABLE,
     ))
 }
 
@@ -83,5 +100,20 @@ mod tests {
             Err(RegionError::Alignment)
         );
         assert_eq!(non_cacheable(16, 0, 1024), Err(RegionError::Number));
+    }
+
+    #[test]
+    fn a_guard_is_read_only_and_otherwise_the_same() {
+        let (rbar, rasr) = read_only(7, 0x2000_0100, 256).unwrap();
+        assert_eq!(rbar, 0x2000_0117);
+        assert_eq!(
+            (rasr >> 24) & 0b111,
+            0b110,
+            "AP: read-only at any privilege"
+        );
+        assert_eq!((rasr >> 1) & 0x1f, 7, "SIZE 7: 2^8 bytes");
+        let (_, full) = non_cacheable(7, 0x2000_0100, 256).unwrap();
+        assert_eq!(rasr & !(0b111 << 24), full & !(0b111 << 24));
+        assert_eq!(read_only(7, 0x2000_0080, 256), Err(RegionError::Alignment));
     }
 }

@@ -43,6 +43,9 @@ pub enum Cause {
     HardFault,
     /// A panic; the handler logged it and reset.
     Panic,
+    /// The stack reached its guard ([`crate::stack_guard`]); the fault
+    /// handler logged it and reset.
+    StackOverflow,
 }
 
 impl Cause {
@@ -56,6 +59,7 @@ impl Cause {
             Cause::Software => "software",
             Cause::HardFault => "HardFault",
             Cause::Panic => "panic",
+            Cause::StackOverflow => "stack overflow",
         }
     }
 }
@@ -74,7 +78,9 @@ pub enum Flags {
 pub struct Report {
     /// The cause.
     pub cause: Cause,
-    /// A HardFault's stacked PC and LR.
+    /// A HardFault's or a stack overflow's stacked PC and LR (0 when the
+    /// core could not stack them: the overflow's frame itself hit the
+    /// guard).
     pub pc: Option<(u32, u32)>,
     /// A panic's file (its last [`FILE_BYTES`] bytes), that length, and
     /// its line.
@@ -125,6 +131,7 @@ fn code(c: Cause) -> u32 {
         Cause::Software => 5,
         Cause::HardFault => 6,
         Cause::Panic => 7,
+        Cause::StackOverflow => 8,
     }
 }
 
@@ -137,6 +144,7 @@ fn cause(code: u32) -> Option<Cause> {
         5 => Cause::Software,
         6 => Cause::HardFault,
         7 => Cause::Panic,
+        8 => Cause::StackOverflow,
         _ => return None,
     })
 }
@@ -180,7 +188,16 @@ impl CrashRecord {
     /// Notes a HardFault at `pc` (`lr`) before the reset.
     #[inline(never)]
     pub fn fault(&mut self, pc: u32, lr: u32) {
-        self.kind = code(Cause::HardFault);
+        self.fault_of(Cause::HardFault, pc, lr);
+    }
+
+    /// Notes a stack overflow at `pc` (`lr`) before the reset.
+    pub fn stack_overflow(&mut self, pc: u32, lr: u32) {
+        self.fault_of(Cause::StackOverflow, pc, lr);
+    }
+
+    fn fault_of(&mut self, cause: Cause, pc: u32, lr: u32) {
+        self.kind = code(cause);
         self.pc = pc;
         self.lr = lr;
         self.check = self.sum();
@@ -228,7 +245,7 @@ impl CrashRecord {
         let report = Report {
             cause,
             pc: kept
-                .filter(|_| cause == Cause::HardFault)
+                .filter(|_| matches!(cause, Cause::HardFault | Cause::StackOverflow))
                 .map(|r| (r.pc, r.lr)),
             panic: kept
                 .filter(|_| cause == Cause::Panic)
@@ -305,6 +322,20 @@ mod tests {
         assert_eq!(report.boots, first.boots + 1);
         // The next start after that is a clean one.
         assert_eq!(next.start(Flags::None).0.pc, None);
+    }
+
+    #[test]
+    fn a_stack_overflow_is_reported_apart_from_a_hardfault() {
+        let mut r = CrashRecord::fresh(1);
+        r.stack_overflow(0x0800_1000, 0x0800_2001);
+        let (report, _) = r.start(Flags::Chip(Cause::Software));
+        assert_eq!(report.cause, Cause::StackOverflow);
+        assert_eq!(report.cause.name(), "stack overflow");
+        assert_eq!(report.pc, Some((0x0800_1000, 0x0800_2001)));
+        assert_eq!(
+            cause(code(Cause::StackOverflow)),
+            Some(Cause::StackOverflow)
+        );
     }
 
     #[test]

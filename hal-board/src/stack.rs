@@ -17,8 +17,9 @@
 //! Where the stack is: cortex-m-rt's `_stack_start` (top) and `_stack_end`
 //! (the lowest address it may reach). Under flip-link (the default link,
 //! see `.cargo/flip-link-or-lld`) that is the bottom of RAM, below the
-//! statics, and an overflow faults; with plain rust-lld it is the end of
-//! the statics.
+//! statics; with plain rust-lld it is the end of the statics. Either way
+//! the lowest bytes are the stack guard's ([`crate::stack_guard`]), which
+//! faults on a write: painting and measuring start above it.
 #![allow(unsafe_code)]
 
 use core::ptr::{self, addr_of};
@@ -43,7 +44,6 @@ extern "C" {
     // cortex-m-rt's linker script (moved by flip-link): the initial stack
     // pointer and the stack's lowest address.
     static _stack_start: u32;
-    static _stack_end: u32;
 }
 
 /// The stack's budgeted size and the deepest it has been, in bytes.
@@ -68,7 +68,8 @@ impl StackUse {
 /// (lowest, highest) address of the budgeted stack.
 fn bounds() -> (usize, usize) {
     let top = addr_of!(_stack_start) as usize;
-    let bottom = addr_of!(_stack_end) as usize;
+    // Above the guard (`crate::stack_guard`): painting it would fault.
+    let bottom = crate::stack_guard::end();
     let bottom = bottom.max(top.saturating_sub(STACK_BUDGET));
     (bottom.next_multiple_of(4), top)
 }

@@ -293,16 +293,59 @@ pub fn fault_check(dev: &mut dyn Device, start: Duration, restart: bool) -> Resu
         Ok(_) => seen.push_str(
             "; the board reset, and its next start read the same PC and LR from the crash record",
         ),
-        Err(e) if restart => {
-            return Err(format!(
-                "the fault was logged but the next start did not report it from the crash record: {e}"
-            ))
+        Err(e) if restart => return Err(format!(
+            "the fault was logged but the next start did not report it from the crash record: {e}"
+        )),
+        Err(_) => {
+            seen.push_str(
+                "; the restart was not seen through the probe (check that the board starts over: LD1 stays dark, the log repeats after a power cycle)",
+            );
+            return Ok(seen);
         }
-        Err(_) => seen.push_str(
-            "; the restart was not seen through the probe (check that the board starts over: LD1 stays dark, the log repeats after a power cycle)",
-        ),
     }
+    seen.push_str("; ");
+    seen.push_str(&overflow_check(dev)?);
     Ok(seen)
+}
+
+/// The start after the HardFault recurses until the stack reaches its
+/// guard (`hal_board::stack_guard`): passes when the overflow was logged
+/// as one, with a stack pointer at the guard, and the start after it
+/// read it back from the crash record.
+fn overflow_check(dev: &mut dyn Device) -> Result<String, String> {
+    let log = wait_count(dev, "stack overflow at PC ", 1, Duration::from_secs(10))
+        .map_err(|e| format!("the stack overflow self-test did not fault: {e}"))?;
+    let line = log
+        .iter()
+        .find(|l| l.contains("stack overflow at PC "))
+        .cloned()
+        .unwrap_or_default();
+    let word = |key: &str| -> Option<u32> {
+        let (_, rest) = line.split_once(key)?;
+        let v = rest
+            .split_whitespace()
+            .next()?
+            .trim_end_matches([':', ';', ',', ')']);
+        u32::from_str_radix(v.strip_prefix("0x")?, 16).ok()
+    };
+    let (guard, sp) = word("its guard at ")
+        .zip(word("(SP "))
+        .ok_or_else(|| format!("unreadable stack overflow line: {line}"))?;
+    if sp >= guard + 1024 {
+        return Err(format!(
+            "a stack overflow was logged with the stack pointer far from the guard: {line}"
+        ));
+    }
+    wait_count(
+        dev,
+        "last reset: stack overflow",
+        1,
+        Duration::from_secs(10),
+    )
+    .map_err(|e| format!("the overflow was logged but the next start did not report it: {e}"))?;
+    Ok(format!(
+        "the stack overflow self-test reached the guard at {guard:#010x} (SP {sp:#010x}), was logged as a stack overflow, and the next start reported it"
+    ))
 }
 
 #[cfg(test)]

@@ -143,7 +143,7 @@ fn main() -> ! {
             c.baseline
         );
     }
-    log_reset(&b.reset);
+    hal_board::fault::log_reset(&b.reset);
     #[cfg(rri_http)]
     diagnostics::started(b.reset);
     let mac = match embassy_net_driver::Driver::hardware_address(&b.net) {
@@ -195,22 +195,6 @@ fn main() -> ! {
             s.spawn(token);
         }
     })
-}
-
-/// Logs why the board started (the crash record `hal_board::reset` kept
-/// across the reset: a HardFault's PC, a panic's file and line).
-fn log_reset(r: &hal_board::reset::Report) {
-    let cause = hal_board::reset::Cause::name(r.cause);
-    match r.pc {
-        Some((pc, lr)) => defmt::warn!(
-            "last reset: {=str} at PC {=u32:#010x} LR {=u32:#010x} (start {=u32})",
-            cause,
-            pc,
-            lr,
-            r.boots
-        ),
-        None => defmt::info!("last reset: {=str} (start {=u32})", cause, r.boots),
-    }
 }
 
 /// Starts the urgent executor with the network task on it. A function of

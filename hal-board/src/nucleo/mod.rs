@@ -148,6 +148,7 @@ pub fn init() -> Result<Board, InitError> {
             defmt::error!("MPU: the uncached window is not one region ({}): data cache off", e);
         }
     }
+    crate::stack_guard::arm(&mut cp);
     cp.DCB.enable_trace();
     // The STM32F7 locks the DWT after a power cycle (cortex-m's
     // `DWT::unlock`): without this every cycle count would read 0.
@@ -179,8 +180,8 @@ pub fn init() -> Result<Board, InitError> {
     // After the MAC's reset (in `new_with_phy`): MDIO goes through it.
     let monitor = phy::Monitor::start(Sma::new(p.ETH_SMA, p.PA2, p.PC1));
     LINK_MONITOR.lock(|m| m.set(Some(monitor)));
-    if cfg!(feature = "fault-selftest") && reset.cause != crate::reset::Cause::HardFault {
-        crate::fault::selftest();
+    if cfg!(feature = "fault-selftest") {
+        crate::fault::selftest(&reset);
     }
     Ok(Board {
         net,

@@ -16,10 +16,12 @@
 //! `--board qemu` runs the same harness against the QEMU board (no
 //! probe), which CI does.
 //!
-//! `--fault` checks the HardFault handler instead: the image executes an
+//! `--fault` checks the fault handlers instead: the image executes an
 //! undefined instruction at the end of its start-up; the run passes when
 //! the fault is logged with its registers and (on QEMU, where it can be
-//! seen) the board restarts.
+//! seen) the board restarts, reports it from the crash record, then
+//! recurses until the stack reaches its MPU guard, logs a stack overflow,
+//! restarts and reports that too.
 //!
 //! Exit status: 0 passed; 1 failed; 2 bad arguments; 3 every reply right
 //! but late (as `cargo demo`); 4 nothing to run on (probe-rs or the probe
@@ -60,7 +62,8 @@ struct Args {
     /// More cargo features for the firmware build (repeatable), e.g. hal-board/dcache-off.
     #[arg(long = "features", value_name = "FEATURE")]
     features: Vec<String>,
-    /// Check the HardFault handler (an image that faults on purpose) instead of driving the device.
+    /// Check the fault handlers (an image that faults on purpose, then overflows its stack) instead
+    /// of driving the device.
     #[arg(long)]
     fault: bool,
     /// No probe: the board already runs this firmware; drive it over Ethernet alone and take the
