@@ -49,7 +49,8 @@ pub const BOARDS: [Board; 2] = [
 
 /// Builds `board` with its alias from the manual's configuration (the
 /// firmware's default GSI folder: `RRI_GSI_DIR` and `RRI_DEVICE` are
-/// cleared) and copies the ELF to `target/boards/<name>.elf`.
+/// cleared) and copies the ELF to `target/boards/<name>.elf`. The alias
+/// builds in the board's own target directory ([`image_dir`]).
 pub fn build(board: &Board) -> Result<PathBuf, String> {
     crate::mcu_target::ensure()?;
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
@@ -63,7 +64,13 @@ pub fn build(board: &Board) -> Result<PathBuf, String> {
     if !status.success() {
         return Err(format!("`cargo {}` failed ({status})", board.alias));
     }
-    crate::qemu::keep_image("boards", board.name)
+    crate::qemu::keep_image_from(&image_dir(board), "boards", board.name)
+}
+
+/// The target directory `board`'s alias builds in (its own, so that one
+/// board's image never replaces the other's: `.cargo/config.toml`).
+pub fn image_dir(board: &Board) -> PathBuf {
+    crate::workspace().join("target").join(board.name)
 }
 
 /// What an image takes, in bytes.

@@ -118,13 +118,24 @@ pub fn build_board(
 /// Copies the firmware image cargo just built to `target/<dir>/<name>.elf`,
 /// so the next build (other features, another board) does not replace it.
 pub fn keep_image(dir: &str, name: &str) -> Result<PathBuf, String> {
-    let built = target_dir().join(TARGET).join(PROFILE).join("rri-sensor");
+    keep_image_from(&target_dir(), dir, name)
+}
+
+/// [`keep_image`] for an image cargo built in target directory `built_in`
+/// (the STM32 boards' aliases each have their own).
+pub fn keep_image_from(built_in: &Path, dir: &str, name: &str) -> Result<PathBuf, String> {
+    let built = image_in(built_in);
     let dir = target_dir().join(dir);
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let elf = dir.join(format!("{name}.elf"));
     std::fs::copy(&built, &elf)
         .map_err(|e| format!("{} → {}: {e}", built.display(), elf.display()))?;
     Ok(elf)
+}
+
+/// Where cargo puts the firmware image in target directory `dir`.
+pub fn image_in(dir: &Path) -> PathBuf {
+    dir.join(TARGET).join(PROFILE).join("rri-sensor")
 }
 
 /// Cargo's target directory (`CARGO_TARGET_DIR` or `target/`).
