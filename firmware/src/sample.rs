@@ -9,7 +9,11 @@
 //!
 //! It holds any `Copy` value: the firmware puts a sensor's whole
 //! [`History`](crate::sensor::History) of timestamped samples in it, so the
-//! sample type is the sensor's choice (see [`crate::sensor`]).
+//! sample type is the sensor's choice (see [`crate::sensor`]). The three
+//! slots are all the memory it takes: [`SampleWriter::publish_with`]
+//! builds the next value in the writer's own slot from the last one
+//! published, so the sampler keeps no copy of its own (a history costs
+//! three times its size, not four).
 //!
 //! # Why the `unsafe` here is sound
 //!
@@ -19,8 +23,11 @@
 //! `front`, or the shared `middle`. An index changes hands only through an
 //! atomic swap with `middle`, which gives the caller the middle's index and
 //! takes the caller's, so no two parties ever hold the same index. The
-//! writer only touches the slot of `back`, the reader only the slot of
-//! `front`. The swaps are `AcqRel`: the writer's release publishes what it
+//! writer only writes the slot of `back`, the reader only reads the slot
+//! of `front`; the writer also reads the slot it published last (`last`),
+//! which is then the middle or the reader's front: nobody writes it until
+//! it comes back to the writer as `back`, and `back` is never `last` (the
+//! swap that publishes `last` hands the writer the middle's other index). The swaps are `AcqRel`: the writer's release publishes what it
 //! wrote before the reader's acquire takes that slot; the reader's release
 //! orders its last reads of a slot before the writer can take it back.
 //! There is one writer and one reader ([`SampleCell::split`] hands them out
@@ -77,6 +84,7 @@ impl<T: Copy> SampleCell<T> {
             SampleWriter {
                 cell: self,
                 back: 2,
+                last: 0,
             },
             SampleReader {
                 cell: self,
@@ -100,6 +108,9 @@ impl<T: Copy> SampleCell<T> {
 pub struct SampleWriter<'a, T> {
     cell: &'a SampleCell<T>,
     back: u8,
+    /// The slot published last (the initial value's middle before the
+    /// first publish): read-only to everyone until it is `back` again.
+    last: u8,
 }
 
 impl<T: Copy> SampleWriter<'_, T> {
@@ -108,7 +119,27 @@ impl<T: Copy> SampleWriter<'_, T> {
         // SAFETY: `back` is the writer's own slot (module doc): the reader
         // holds another one and the middle a third.
         unsafe { *self.cell.slot(self.back).get() = *value };
+        self.swap_in();
+    }
+
+    /// Publishes the last value published (the initial value before the
+    /// first) changed by `change`, built in place in the writer's own
+    /// slot: one copy of the value, as [`publish`](Self::publish), and no
+    /// copy kept anywhere else. Never waits.
+    pub fn publish_with(&mut self, change: impl FnOnce(&mut T)) {
+        // SAFETY: `back` is the writer's own slot and `last` another one
+        // that nobody writes meanwhile (module doc): a copy between them.
+        unsafe { *self.cell.slot(self.back).get() = *self.cell.slot(self.last).get() };
+        // SAFETY: the writer's own slot; no other reference to it exists
+        // (the reader holds `front`, `last` was only read above).
+        change(unsafe { &mut *self.cell.slot(self.back).get() });
+        self.swap_in();
+    }
+
+    /// Swaps the written `back` into the middle, marked fresh.
+    fn swap_in(&mut self) {
         let previous = self.cell.middle.swap(self.back | FRESH, Ordering::AcqRel);
+        self.last = self.back;
         self.back = previous & INDEX;
     }
 }
@@ -160,6 +191,51 @@ mod tests {
         assert_eq!(*r.latest(), [2, 20], "kept until a newer one");
         w.publish(&[3, u64::MAX]);
         assert_eq!(*r.latest(), [3, u64::MAX]);
+    }
+
+    #[test]
+    fn publish_with_builds_on_the_last_value_published() {
+        let cell = SampleCell::new([0u32; 4]);
+        let (mut w, mut r) = cell.split().expect("split");
+        for i in 1..=10u32 {
+            w.publish_with(|v| {
+                v.rotate_left(1);
+                v[3] = i;
+            });
+            if i % 3 == 0 {
+                // The reader takes some publishes and misses others: the
+                // writer builds on its own last one either way.
+                assert_eq!(*r.latest(), [i - 3, i - 2, i - 1, i]);
+            }
+        }
+        assert_eq!(*r.latest(), [7, 8, 9, 10]);
+        w.publish(&[1, 2, 3, 4]);
+        w.publish_with(|v| v[0] = 9);
+        assert_eq!(*r.latest(), [9, 2, 3, 4], "after a whole publish too");
+    }
+
+    #[test]
+    fn a_concurrent_reader_only_ever_sees_whole_values_built_in_place() {
+        static CELL: SampleCell<[u64; 16]> = SampleCell::new([0; 16]);
+        let (mut w, mut r) = CELL.split().expect("split");
+        std::thread::scope(|s| {
+            s.spawn(move || {
+                for _ in 1..200_000u64 {
+                    w.publish_with(|v| {
+                        for x in v.iter_mut() {
+                            *x += 1;
+                        }
+                    });
+                }
+            });
+            let mut last = 0;
+            for _ in 0..200_000 {
+                let x = *r.latest();
+                assert!(x.iter().all(|&v| v == x[0]), "torn: {x:?}");
+                assert!(x[0] >= last, "never older than before");
+                last = x[0];
+            }
+        });
     }
 
     #[test]

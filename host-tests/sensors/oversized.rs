@@ -1,8 +1,7 @@
 //! A sensor whose history is too large for the boards: 96 samples of the
-//! distance, 2,312 bytes, whose four copies in the DTCM (the sample
-//! cell's three and the sampler's own) take far more than the 2.2 KiB the
-//! statics may still grow by, so they leave the stack less than its
-//! 80 KiB (budgets otherwise kept).
+//! distance, 2,312 bytes, whose three copies in the DTCM (the sample
+//! cell's slots) take far more than the 2.7 KiB a sensor may use, so they
+//! leave the stack less than its 80 KiB (budgets otherwise kept).
 //! CI builds the F767 image with it (`RRI_SENSOR=host-tests/sensors/
 //! oversized.rs cargo build-f767`) and expects the link to refuse it with
 //! the stack rule's line: the board's rules hold on the plain board build

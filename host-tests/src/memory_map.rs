@@ -94,8 +94,8 @@ pub fn sections(elf: &Path) -> Result<Vec<(String, u64, u64)>, String> {
 
 /// What the sensor's statics take in the firmware ELF, in bytes: its
 /// sample cell (`rri_sensor::SAMPLES`, the triple buffer's three copies of
-/// the history) and the sampler task (`rri_sensor::sampler`'s pool: its own
-/// copy and the task's state). `None` when neither is there.
+/// the history) and the sampler task (`rri_sensor::sampler`'s pool: the
+/// task's state; the sampler keeps no copy of the history). `None` when neither is there.
 pub fn sensor_statics(elf: &Path) -> Result<Option<u64>, String> {
     use object::{Object, ObjectSymbol};
     let data = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;

@@ -107,14 +107,15 @@ pub trait Sensor<R = RobotProperties, D = DeviceProperties>: Sized {
     fn fill(&mut self, samples: &Self::History, robot: &R, device: &mut D, cycle: &CycleInfo<'_>);
 }
 
-/// The sampling half's plumbing: the history and the writer of the cell
-/// the cycle reads. The board's (or the host's) sampler task calls
+/// The sampling half's plumbing: the writer of the cell the cycle reads,
+/// whose slots hold the history (no copy of it here). The board's (or the host's) sampler task calls
 /// [`Sampler::step`] every [`Sensor::SAMPLE_EVERY_US`].
 pub struct Sampler<'a, S, R = RobotProperties, D = DeviceProperties>
 where
     S: Sensor<R, D>,
 {
-    history: S::History,
+    /// Publishes the history; the history itself lives in the cell's
+    /// slots ([`SampleWriter::publish_with`]), not here.
     writer: SampleWriter<'a, S::History>,
     _layout: PhantomData<fn(&R, &mut D)>,
 }
@@ -123,7 +124,6 @@ impl<'a, S: Sensor<R, D>, R, D> Sampler<'a, S, R, D> {
     /// A sampler publishing through `writer`.
     pub fn new(writer: SampleWriter<'a, S::History>) -> Self {
         Sampler {
-            history: <S::History as Ring<S::Sample>>::EMPTY,
             writer,
             _layout: PhantomData,
         }
@@ -149,8 +149,9 @@ impl<'a, S: Sensor<R, D>, R, D> Sampler<'a, S, R, D> {
 
     /// Adds a sample from elsewhere (a recorded file) and publishes.
     pub fn push(&mut self, sample: Stamped<S::Sample>) {
-        self.history.push(sample);
-        self.writer.publish(&self.history);
+        // The last history published plus this sample, built in the
+        // writer's slot: no copy of the history kept here.
+        self.writer.publish_with(|history| history.push(sample));
     }
 }
 

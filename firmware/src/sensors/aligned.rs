@@ -39,8 +39,8 @@ pub struct Aligned;
 impl<R: RobotSet, D: DeviceSet> Sensor<R, D> for Aligned {
     type Sample = Reading;
     /// 24 ms at 1 kHz: three times the feedback's age, and small enough
-    /// for the boards (four copies of 584 bytes in the DTCM, see the
-    /// README's "How much RAM your sensor may take").
+    /// for the boards (three copies of 392 bytes in the DTCM, see
+    /// firmware/README.md's "How much RAM your sensor may take").
     type History = History<Self::Sample, HISTORY>;
     const SAMPLE_EVERY_US: u32 = 1_000;
 
