@@ -1,4 +1,4 @@
-// Included by `firmware/build.rs` and `firmware/rri-sensor/build.rs`: how
+// Included by `firmware/rri-sensor/build.rs` and `firmware/active-sensor/build.rs`: how
 // the firmware's binaries link for the MCU.
 
 /// Link arguments for the package's binaries on the MCU only: the host

@@ -11,8 +11,9 @@
 //! - [`schema`]: the vocabulary the generated layouts are written in;
 //!   [`properties`]: how the engine sees several properties per direction.
 //! - [`sensor`]: the one trait an integrator implements for their measuring
-//!   device; [`sensors`]: the worked examples and the one `RRI_SENSOR`
-//!   chose.
+//!   device; [`sensors`]: the worked examples (the one `RRI_SENSOR`
+//!   chooses is in the crate `rri-active-sensor`, so that choosing it
+//!   never rebuilds this one).
 //!
 //! Rules: no heap, no recursion, no panics on any input; every buffer is
 //! sized by a generated constant.
@@ -36,8 +37,8 @@
     )
 )]
 
-// Sensor files say `rri_firmware::…`, inside this crate (the examples, and
-// the file `RRI_SENSOR` names) as outside it.
+// Sensor files say `rri_firmware::…`, inside this crate (the examples) as
+// outside it (the file `RRI_SENSOR` names, in `rri-active-sensor`).
 extern crate self as rri_firmware;
 
 #[cfg(feature = "codec-baseline")]

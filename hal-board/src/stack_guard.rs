@@ -249,7 +249,7 @@ mod tests {
         // rust-lld: the stack's end is the end of the statics.
         let (base, end) = layout(0x2001_4a64);
         assert_eq!(base % SIZE, 0);
-        assert!(base >= 0x2001_4a64 + RESERVE && base < 0x2001_4a64 + RESERVE + SIZE);
+        assert!((0x2001_4a64 + RESERVE..0x2001_4a64 + RESERVE + SIZE).contains(&base));
         assert_eq!(end - base, SIZE);
         assert!(end < 0x2001_4a64 + NEAR);
     }

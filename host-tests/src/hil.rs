@@ -293,9 +293,11 @@ pub fn fault_check(dev: &mut dyn Device, start: Duration, restart: bool) -> Resu
         Ok(_) => seen.push_str(
             "; the board reset, and its next start read the same PC and LR from the crash record",
         ),
-        Err(e) if restart => return Err(format!(
+        Err(e) if restart => {
+            return Err(format!(
             "the fault was logged but the next start did not report it from the crash record: {e}"
-        )),
+        ))
+        }
         Err(_) => {
             seen.push_str(
                 "; the restart was not seen through the probe (check that the board starts over: LD1 stays dark, the log repeats after a power cycle)",

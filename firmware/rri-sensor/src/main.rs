@@ -12,7 +12,7 @@
 //!   (10 Hz: LEDs, the watchdog, state changes and a counter line per
 //!   second in the log) and, in bench builds, the bench's record logger.
 //!
-//! The sensor is `rri_firmware::sensors::Active`, the file `RRI_SENSOR`
+//! The sensor is `rri_active_sensor::Active`, the file `RRI_SENSOR`
 //! names: nothing here depends on its sample type.
 //!
 //! The watchers never hold the engine: the cycle publishes a
@@ -31,6 +31,7 @@ use embassy_executor::{SendSpawner, Spawner};
 use embassy_net::{Ipv4Address, Ipv4Cidr, Runner, Stack, StackResources, StaticConfigV4};
 use embassy_time::{Duration, Ticker};
 use hal_board::board;
+use rri_active_sensor::Active;
 use rri_firmware::codec::DecodeErrorKind;
 use rri_firmware::engine::{Clock, DropReason, Engine, Outcome, SensorState};
 use rri_firmware::fragments::guard::FragmentGuard;
@@ -41,7 +42,6 @@ use rri_firmware::network;
 use rri_firmware::sample::{SampleCell, SampleReader, SampleWriter};
 use rri_firmware::schema::Protocol;
 use rri_firmware::sensor::{Ring, Sampler, Sensor, SensorApp};
-use rri_firmware::sensors::Active;
 use rri_firmware::snapshot::{Published, Snapshot};
 use static_cell::{ConstStaticCell, StaticCell};
 
@@ -128,8 +128,8 @@ fn main() -> ! {
     );
     defmt::info!(
         "sensor: {=str} from {=str}",
-        rri_firmware::sensors::active_name(),
-        rri_firmware::sensors::ACTIVE_FILE
+        rri_active_sensor::active_name(),
+        rri_active_sensor::ACTIVE_FILE
     );
     #[cfg(feature = "bench")]
     for (name, message) in rri_firmware::bench::CODEC_CORPUS {

@@ -249,23 +249,3 @@ fn aligned_reads_a0_and_recorded_rows() {
     );
     assert_eq!(<Aligned as Sensor>::replay(&[]), None);
 }
-
-/// The start-up log names the sensor a build runs: by default the distance
-/// example, its file given from the workspace root.
-#[test]
-fn the_active_sensor_is_named_with_its_file() {
-    if option_env!("RRI_SENSOR").is_some_and(|v| !v.trim().is_empty()) {
-        assert!(
-            super::ACTIVE_FILE.ends_with(".rs"),
-            "{}",
-            super::ACTIVE_FILE
-        );
-        return;
-    }
-    assert_eq!(super::ACTIVE_FILE, "firmware/src/sensors/distance.rs");
-    assert!(
-        super::active_name().ends_with("sensors::distance::Distance"),
-        "{}",
-        super::active_name()
-    );
-}

@@ -12,6 +12,7 @@
 
 use clap::Parser;
 use host_tests::sensor::{run, Recording, SensorOptions, Source};
+use rri_active_sensor::Active;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -88,6 +89,7 @@ fn options(a: &Args) -> SensorOptions {
         o.config.send_period_ms = ms;
     }
     o.http = a.http;
+    o.sensor_file = rri_active_sensor::ACTIVE_FILE;
     o
 }
 
@@ -110,7 +112,7 @@ fn main() -> ExitCode {
         return ExitCode::FAILURE;
     }
     let mut out = std::io::stdout();
-    match run(&opts, &stop, None, &mut out) {
+    match run::<Active>(&opts, &stop, None, &mut out) {
         Ok(_) => ExitCode::SUCCESS,
         Err(e) => {
             // Whose address it is: the command line's or the configuration's.

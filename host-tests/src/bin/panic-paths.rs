@@ -1,7 +1,7 @@
 //! `cargo panic-check [-- --selftest]`: panic-freedom of the firmware's
 //! cycle path, from the machine code the MCU would run.
 //!
-//! Builds `firmware/src/bin/panic-check.rs` (the whole cycle path on
+//! Builds `firmware/active-sensor/src/bin/panic-check.rs` (the whole cycle path on
 //! inputs the optimizer cannot see) for the MCU with the firmware profile,
 //! disassembles it with `llvm-objdump` (rustup's `llvm-tools`), and finds
 //! every call that code outside the standard library makes to a panic
@@ -14,7 +14,9 @@
 //! frame) and listed by crate.
 //!
 //! Fails when any remaining panic path lies in the firmware crate
-//! (`firmware/src/…`). Paths inside dependencies are listed, not failed:
+//! (`firmware/src/…`) or the sensor (`firmware/active-sensor/src/…`, and
+//! the file `RRI_SENSOR` names wherever it lives: `cargo sensor-check`
+//! runs this on yours). Paths inside dependencies are listed, not failed:
 //! they are the dependency's own internal checks (see the README).
 //! `--selftest` builds the image with a deliberate out-of-bounds index
 //! (feature `panic-check-selftest`) and succeeds only if it is found.
@@ -62,6 +64,19 @@ fn llvm_objdump() -> Result<PathBuf, String> {
         .join(host)
         .join("bin/llvm-objdump");
     if path.exists() {
+        return Ok(path);
+    }
+    // Installed once, as the MCU target is (`mcu_target::ensure`).
+    eprintln!(
+        "{} is missing: `rustup component add llvm-tools` (once)…",
+        path.display()
+    );
+    let added = Command::new("rustup")
+        .current_dir(host_tests::workspace())
+        .args(["component", "add", "llvm-tools"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if added && path.exists() {
         Ok(path)
     } else {
         Err(format!(
@@ -86,7 +101,7 @@ fn build(selftest: bool) -> Result<PathBuf, String> {
             "build",
             "-q",
             "-p",
-            "rri-firmware",
+            "rri-active-sensor",
             "--bin",
             "panic-check",
             "--profile",
@@ -257,11 +272,19 @@ fn owner(site: &Site) -> String {
 
 /// `firmware`, a dependency's name, or `None` without a source line.
 fn source_owner(source: &str) -> Option<String> {
-    // The firmware crate and the framer it takes from rri-framing.
-    let ours = ["firmware/src/", "firmware/rri-framing/src/"];
+    // The firmware crate, the framer it takes from rri-framing, and the
+    // active sensor (its crate, and its file wherever it lives: the
+    // sensor runs in the cycle too).
+    let ours = [
+        "firmware/src/",
+        "firmware/rri-framing/src/",
+        "firmware/active-sensor/src/",
+    ];
+    let sensor = sensor_file();
     if ours
         .iter()
         .any(|dir| source.contains(&format!("/{dir}")) || source.starts_with(dir))
+        || sensor.as_deref().is_some_and(|f| source.starts_with(f))
     {
         Some("firmware".into())
     } else if let Some(rest) = source.split("/registry/src/").nth(1) {
@@ -272,6 +295,15 @@ fn source_owner(source: &str) -> Option<String> {
     } else {
         source.split('/').next().map(str::to_string)
     }
+}
+
+/// The sensor file `RRI_SENSOR` names, absolute (as the image's debug
+/// information gives it), when it is set.
+fn sensor_file() -> Option<String> {
+    let set = std::env::var("RRI_SENSOR").ok()?;
+    let path = host_tests::workspace().join(set.trim());
+    let path = path.canonicalize().unwrap_or(path);
+    Some(path.to_string_lossy().into_owned())
 }
 
 fn run(selftest: bool) -> Result<bool, String> {
@@ -329,10 +361,10 @@ fn run(selftest: bool) -> Result<bool, String> {
         return Ok(caught);
     }
     if ours > 0 {
-        println!("FAIL: {ours} panic path(s) in the firmware crate");
+        println!("FAIL: {ours} panic path(s) in the firmware crate or the sensor");
         Ok(false)
     } else {
-        println!("ok: no panic path in the firmware crate's cycle path");
+        println!("ok: no panic path in the firmware crate's cycle path or the sensor");
         Ok(true)
     }
 }

@@ -1,6 +1,7 @@
-//! The host build of the sensor: the firmware's own cycle engine and the
-//! integrator's sensor (`rri_firmware::sensors::Active`, the file
-//! `RRI_SENSOR` names, unchanged) behind std sockets, for integrators
+//! The host build of the sensor: the firmware's own cycle engine and any
+//! sensor (`cargo sensor-host` runs the integrator's,
+//! `rri_active_sensor::Active`, the file `RRI_SENSOR` names, unchanged;
+//! the tests here the demo's, [`DemoSensor`]) behind std sockets, for integrators
 //! without hardware (point a RobotStudio virtual controller or the robot
 //! simulator at it). Not a re-implementation: every message goes through
 //! `rri_firmware::engine`, every sample through the sensor's `Sampler` and
@@ -15,7 +16,11 @@ use rri_firmware::layout;
 use rri_firmware::properties::{DeviceSet, RobotSet};
 use rri_firmware::sample::SampleCell;
 use rri_firmware::sensor::{Ring, Sampler, Sensor, SensorApp};
-use rri_firmware::sensors::Active;
+
+/// The sensor the host-tests' own runs use ([`Background::start`]): the
+/// demo's, whatever `RRI_SENSOR` says, so that choosing a sensor never
+/// rebuilds these tools (only `cargo sensor-host` runs the chosen one).
+pub type DemoSensor = rri_firmware::sensors::distance::Distance;
 use rri_firmware::snapshot::Snapshot;
 use std::io::{self, Write};
 use std::net::SocketAddr;
@@ -76,6 +81,8 @@ pub struct SensorOptions {
     pub http: Option<SocketAddr>,
     /// Told the diagnostics' bound address once it listens.
     pub http_ready: Option<Sender<SocketAddr>>,
+    /// The sensor's source file, as the diagnostics name it.
+    pub sensor_file: &'static str,
 }
 
 impl SensorOptions {
@@ -93,9 +100,13 @@ impl SensorOptions {
             source: Source::Simulated,
             http: None,
             http_ready: None,
+            sensor_file: DEMO_SENSOR_FILE,
         }
     }
 }
+
+/// [`DemoSensor`]'s file, as the diagnostics name it.
+pub const DEMO_SENSOR_FILE: &str = "firmware/src/sensors/distance.rs";
 
 /// What a run leaves behind.
 #[derive(Clone, Debug)]
@@ -160,7 +171,7 @@ fn host_identity<S: Sensor<R, D>, R: RobotSet, D: DeviceSet>(
         commit: rri_firmware::network::COMMIT,
         board: "host (cargo sensor-host)",
         sensor: core::any::type_name::<S>(),
-        sensor_file: rri_firmware::sensors::ACTIVE_FILE,
+        sensor_file: opts.sensor_file,
         mac: None,
         ip,
         prefix: 32,
@@ -278,18 +289,18 @@ pub struct Background {
 }
 
 impl Background {
-    /// Starts the built sensor ([`Active`], simulated samples; UDP, or
-    /// TCP) with `config`, for the layout the firmware was built for;
+    /// Starts the demo's sensor ([`DemoSensor`], simulated samples; UDP,
+    /// or TCP) with `config`, for the layout the firmware was built for;
     /// waits until it listens.
     pub fn start(tcp: bool, config: Config) -> io::Result<Background> {
-        Self::start_sensor::<Active>(tcp, config, Source::Simulated)
+        Self::start_sensor::<DemoSensor>(tcp, config, Source::Simulated)
     }
 
     /// [`Background::start`] with its diagnostics served on an ephemeral
     /// port of 127.0.0.1 ([`Background::http`]).
     pub fn start_diagnosed(tcp: bool, config: Config) -> io::Result<Background> {
         Self::start_opts::<
-            Active,
+            DemoSensor,
             layout::RobotProperties,
             layout::DeviceProperties,
             { layout::MAX_RECEIVE_LEN },
@@ -370,6 +381,7 @@ impl Background {
             source,
             http: http.then(|| SocketAddr::from(([127, 0, 0, 1], 0))),
             http_ready: Some(http_tx),
+            sensor_file: DEMO_SENSOR_FILE,
         };
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
@@ -404,16 +416,17 @@ impl Background {
     }
 }
 
-/// Runs the built sensor ([`Active`]) until `stop` is set. `ready` receives
-/// the bound address (useful with port 0). Log lines (what it samples,
-/// state changes, statistics) go to `log`.
-pub fn run(
+/// Runs sensor `S` for the built layout until `stop` is set (`cargo
+/// sensor-host` runs the chosen one). `ready` receives the bound address
+/// (useful with port 0). Log lines (what it samples, state changes,
+/// statistics) go to `log`.
+pub fn run<S: Sensor<layout::RobotProperties, layout::DeviceProperties>>(
     opts: &SensorOptions,
     stop: &AtomicBool,
     ready: Option<Sender<SocketAddr>>,
     log: &mut dyn Write,
 ) -> io::Result<SensorReport> {
-    run_with::<Active, layout::RobotProperties, layout::DeviceProperties, { layout::MAX_RECEIVE_LEN }>(
+    run_with::<S, layout::RobotProperties, layout::DeviceProperties, { layout::MAX_RECEIVE_LEN }>(
         opts, stop, ready, log,
     )
 }

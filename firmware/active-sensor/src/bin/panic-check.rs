@@ -3,7 +3,7 @@
 //!
 //! This image runs what every board runs per robot message and per poll —
 //! the engine's `on_message` (peer check, decode, Id accounting,
-//! supervision, the sensor's cycle half (`sensors::Active`, the file
+//! supervision, the sensor's cycle half (`rri_active_sensor::Active`, the file
 //! `RRI_SENSOR` names), encode), its `poll`, the TCP framer
 //! and the stall guard — on inputs the optimizer cannot see (a datagram of
 //! any length and content from any source, any time), built with the
@@ -19,11 +19,11 @@
 
 use core::hint::black_box;
 use cortex_m_rt::entry;
+use rri_active_sensor::Active;
 use rri_firmware::engine::{Clock, Endpoint, Engine, Instant, Outcome};
 use rri_firmware::layout::{self, DeviceEngine};
 use rri_firmware::sample::SampleCell;
 use rri_firmware::sensor::{Ring, Sampler, Sensor, SensorApp, Simulated};
-use rri_firmware::sensors::Active;
 use rri_firmware::tcp::{Framer, StallGuard};
 
 /// Never reached when the check passes for the firmware's own code; the
