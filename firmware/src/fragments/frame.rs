@@ -1,7 +1,8 @@
 //! Frames as the reassembler reads them, without trusting a byte: the
 //! Ethernet and IPv4 headers, whether a frame is a fragment (checked:
 //! header length and checksum, lengths within the frame, 8-byte units),
-//! and the UDP ports of a whole datagram.
+//! the UDP ports of a whole datagram, and a reassembled datagram's UDP
+//! checksum.
 
 pub(super) const ETHERTYPE_IPV4: u16 = 0x0800;
 pub(super) const ETHERNET: usize = 14;
@@ -53,7 +54,12 @@ pub(super) fn ip4(b: &[u8], i: usize) -> Option<[u8; 4]> {
 
 /// The Internet checksum of `b` (0 over a header whose checksum is right).
 pub(super) fn checksum(b: &[u8]) -> u16 {
-    let mut sum: u32 = 0;
+    fold(ones(b, 0))
+}
+
+/// `sum` plus the 16-bit words of `b` (an odd last byte padded with 0),
+/// not yet folded: at most 65,535 bytes keep it within 32 bits.
+fn ones(b: &[u8], mut sum: u32) -> u32 {
     let mut words = b.chunks_exact(2);
     for w in &mut words {
         if let [hi, lo] = w {
@@ -63,10 +69,50 @@ pub(super) fn checksum(b: &[u8]) -> u16 {
     if let [last] = words.remainder() {
         sum += u32::from(*last) << 8;
     }
+    sum
+}
+
+/// The one's complement of `sum` folded to 16 bits.
+fn fold(mut sum: u32) -> u16 {
     while sum > 0xffff {
         sum = (sum & 0xffff) + (sum >> 16);
     }
     !(sum as u16)
+}
+
+/// Whether `ip`, a whole IPv4 datagram (a 20-byte header without
+/// options, then UDP), carries a UDP length within its payload and a right
+/// UDP checksum over it, or none (0, which IPv4 allows). A reassembled
+/// datagram is checked here whatever the driver declares: no NIC can
+/// check the checksum of a payload that came in fragments.
+pub(super) fn udp_checksum_ok(ip: &[u8]) -> bool {
+    let (Some(addresses), Some(payload)) = (ip.get(12..IPV4), ip.get(IPV4..)) else {
+        return false;
+    };
+    let Some(udp) = be16(payload, 4).and_then(|n| payload.get(..usize::from(n))) else {
+        return false;
+    };
+    if udp.len() < 8 {
+        return false;
+    }
+    if be16(udp, 6) == Some(0) {
+        return true;
+    }
+    // The pseudo-header: source, destination, zero and protocol, length.
+    let length = u32::try_from(udp.len()).unwrap_or(u32::MAX);
+    fold(ones(udp, ones(addresses, u32::from(UDP) + length))) == 0
+}
+
+/// Whether a whole IPv4 `frame`'s header is one the stack keeps: its
+/// header checksum right and its length within the frame (a controller
+/// datagram is counted only once it passes this).
+fn header_valid(frame: &[u8], ihl: usize) -> bool {
+    let total = be16(frame, ETHERNET + 2).map_or(0, usize::from);
+    total >= ihl
+        && frame.len() >= ETHERNET + total
+        && frame
+            .get(ETHERNET..ETHERNET + ihl)
+            .is_some_and(|h| checksum(h) == 0)
 }
 
 pub(super) fn classify(frame: &[u8]) -> Frame<'_> {
@@ -110,7 +156,9 @@ pub(super) fn fragment(frame: &[u8], vihl: u8, more: bool, offset: usize) -> Opt
     })
 }
 
-/// UDP source and destination port of a whole IPv4 datagram to `device`.
+/// UDP source and destination port of a whole IPv4 datagram to `device`,
+/// whose IPv4 header is valid (its checksum, its length): one the stack
+/// keeps (the UDP checksum is the NIC's or the stack's to check).
 pub(super) fn udp_ports(frame: &[u8], device: [u8; 4]) -> Option<([u8; 4], u16, u16)> {
     if be16(frame, 12)? != ETHERTYPE_IPV4 || *frame.get(ETHERNET + 9)? != UDP {
         return None;
@@ -119,7 +167,7 @@ pub(super) fn udp_ports(frame: &[u8], device: [u8; 4]) -> Option<([u8; 4], u16, 
         return None;
     }
     let ihl = usize::from(frame.get(ETHERNET)? & 0x0f) * 4;
-    if ihl < IPV4 {
+    if ihl < IPV4 || !header_valid(frame, ihl) {
         return None;
     }
     let udp = ETHERNET + ihl;

@@ -7,6 +7,17 @@
 //! the stack as an empty frame, which smoltcp skips. Sending is the
 //! driver's own.
 //!
+//! What it tells the stack of the driver ([`Driver::capabilities`]) is
+//! the driver's, unchanged, on purpose: the MTU is also smoltcp's
+//! transmit size and the base of the TCP MSS it advertises, so reporting
+//! the reassembled size would make it send frames the link cannot carry
+//! and invite peers to send segments that must be reassembled; and the
+//! checksum capabilities describe what the NIC checked in a frame. A
+//! reassembled datagram is neither: the reassembler checks its UDP
+//! checksum itself whatever the driver declares (no NIC can check a
+//! payload that came in fragments) and zeroes it, so the stack, which
+//! takes 0 as "no checksum", never trusts a check nobody made.
+//!
 //! It keeps other traffic from between a robot message and its reply
 //! ([`super::Hold`]): while the cycle works on a message nothing is sent
 //! or taken in (smoltcp would otherwise send the diagnostics' segments,
@@ -232,6 +243,7 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
         self.inner.link_state(cx)
     }
 
+    /// The driver's own, unchanged (the module doc says why).
     fn capabilities(&self) -> Capabilities {
         self.inner.capabilities()
     }

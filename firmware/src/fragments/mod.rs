@@ -229,13 +229,16 @@ pub struct FragmentStats {
     /// reached the device (in time).
     pub controller_incomplete: u32,
     /// The controller's robot messages lost in reassembly itself: a set
-    /// spoiled by a malformed or overlapping fragment, or refused a buffer
-    /// (never evicted: nothing ranks above them; a set shown oversize or
-    /// for another port was no robot message and is not counted here).
+    /// spoiled by a malformed or overlapping fragment or a wrong UDP
+    /// checksum once whole, or refused a buffer (never evicted: nothing
+    /// ranks above them; a set shown oversize or for another port was no
+    /// robot message and is not counted here).
     pub controller_dropped: u32,
     /// The controller's datagrams to the channel port handed to the stack
-    /// whole, in one frame or reassembled: the robot messages that reached
-    /// the device (the floods' losses are split with it).
+    /// whole and valid, in one frame (its IPv4 header checksum and length
+    /// right; its UDP checksum is the NIC's or the stack's to check) or
+    /// reassembled (its UDP checksum checked here): the robot messages
+    /// that reached the device (the floods' losses are split with it).
     pub controller_datagrams: u32,
 }
 
@@ -308,3 +311,5 @@ pub use link::{Hold, Link, HOLD_MAX_US};
 mod fair_tests;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod valid_tests;
