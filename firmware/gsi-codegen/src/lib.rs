@@ -74,7 +74,7 @@ pub use rri_vocabulary::MAX_DECIMALS;
 /// Generates the layout source for `device`. Errors (name collisions in
 /// Rust, messages larger than a datagram) name Configuration.xml positions.
 pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnostic>> {
-    let mut errors = Vec::new();
+    let mut errors = compiled::refuse_nested_records(device);
     let id = idents(device, &mut errors);
     let format = Format::new(opts.real_decimals, opts.time_decimals);
     let mut message_sizes = Vec::new();
@@ -169,7 +169,7 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
     }
     // (rustfmt puts `codec::compiled::…` before `codec::{…}`.)
     if has_rx {
-        if compiled::names_module(device, &id) {
+        if compiled::names_module(device) {
             e.use_list(&format!("{k}::codec::compiled"), &["self", "Scan"]);
         } else {
             e.line(format!("use {k}::codec::compiled::Scan;"));
