@@ -512,8 +512,13 @@ pub fn parse_time(text: &[u8]) -> Result<Time, NumberError> {
     } else {
         micros
     };
-    let micros = i64::try_from(micros).map_err(|_| NumberError::OutOfRange)?;
-    Ok(Time::from_micros(if d.negative { -micros } else { micros }))
+    // The magnitude of the least time, 2^63 µs, fits only negated.
+    let micros = if d.negative {
+        0i64.checked_sub_unsigned(micros)
+    } else {
+        i64::try_from(micros).ok()
+    };
+    Ok(Time::from_micros(micros.ok_or(NumberError::OutOfRange)?))
 }
 
 #[cfg(test)]

@@ -99,6 +99,17 @@ fn m5_times_parse_exactly_in_any_notation() {
     assert_eq!(t(b"1e-300"), Ok(0));
     assert_eq!(t(b"9223372036854.775807"), Ok(i64::MAX));
     assert_eq!(t(b"9223372036854.775808"), Err(NumberError::OutOfRange));
+    // The least time fits (its magnitude does not, as a positive i64):
+    // exactness list of issue 36.
+    assert_eq!(t(b"-9223372036854.775808"), Ok(i64::MIN));
+    assert_eq!(t(b"-9223372036854.775807"), Ok(i64::MIN + 1));
+    assert_eq!(t(b"-9223372036854.775809"), Err(NumberError::OutOfRange));
+    assert_eq!(
+        t(b"-9223372036854.7758075"),
+        Ok(i64::MIN),
+        "rounds half away from zero"
+    );
+    assert_eq!(t(b"-9223372036854.7758085"), Err(NumberError::OutOfRange));
     assert_eq!(t(b"x"), Err(NumberError::Syntax));
     assert_eq!(t(b"inf"), Err(NumberError::Syntax));
 }

@@ -24,6 +24,8 @@ pub(super) struct Collected<'a> {
     piece: Option<(&'a str, usize)>,
     /// More than one non-whitespace piece (text split by comments/CDATA).
     fragmented: bool,
+    /// The piece was CDATA: literal, no references to decode.
+    piece_cdata: bool,
     /// Any character data at all (for strings, whitespace counts).
     any: bool,
     /// Attributes assigned (frame, joints, arrays).
@@ -38,6 +40,7 @@ impl<'a> Collected<'a> {
         Collected {
             piece: None,
             fragmented: false,
+            piece_cdata: false,
             any: false,
             assigned: 0,
             string: RriString::new(),
@@ -238,9 +241,10 @@ pub(super) fn finish_slot(
         FieldMut::Time(v) => *v = time(text, at)?,
         FieldMut::Bool(v) => *v = boolean(text, at)?,
         FieldMut::Enum(e) => {
-            // An alias may hold `&` or `<` (escaped on the wire).
+            // An alias may hold `&` or `<` (escaped on the wire; CDATA is
+            // literal, so `<![CDATA[Man&#x52;S]]>` is no `ManRS`).
             let mut decoded = RriString::new();
-            let wire = if text.contains('&') {
+            let wire = if !c.piece_cdata && text.contains('&') {
                 append_decoded(&mut decoded, text)
                     .map_err(|b| err(DecodeErrorKind::BadReference, at + b.at))?;
                 decoded.as_bytes()
@@ -291,6 +295,7 @@ pub(super) fn collect<'a>(
             c.fragmented = true;
         } else {
             c.piece = Some((t, at + raw.len() - from_start.len()));
+            c.piece_cdata = cdata;
         }
     }
     Ok(())

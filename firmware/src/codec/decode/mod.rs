@@ -227,12 +227,14 @@ impl<'a, M: MessageCodec> Visitor<'a> for Binder<'a, '_, M> {
             let known = match M::field_mut(self.data, i) {
                 Some(field) if prefix.is_empty() => {
                     // A value's attributes beyond its count (a repeated
-                    // `X="…"`) are extras: each would be parsed again.
-                    if self.components.is_some_and(|n| self.c.assigned >= n) {
-                        self.extras.add(at)?;
-                    }
+                    // `X="…"` once all are set) are extras: each would be
+                    // parsed again. Counted once: an unknown attribute is
+                    // one extra below, wherever it stands.
+                    let full = self.components.is_some_and(|n| self.c.assigned >= n);
                     let known = set_component(field, name.as_bytes(), value, at, &mut self.tally)?;
-                    if known {
+                    if known && full {
+                        self.extras.add(at)?;
+                    } else if known {
                         self.c.assigned += 1;
                     }
                     known
@@ -426,6 +428,36 @@ mod tests {
         let text = r#"<T Id="1"><A>1</A><A>2</A></T>"#;
         let e = run(text).1.unwrap_err();
         assert_eq!((e.kind, e.offset), (DecodeErrorKind::Duplicate, 18));
+    }
+
+    /// An unknown attribute is one extra wherever it stands in a value's
+    /// attributes: before its components or after them (it used to count
+    /// twice after them: exactness list of issue 36).
+    #[test]
+    fn an_unknown_attribute_costs_the_same_before_and_after_a_values_components() {
+        let frame = r#"X="1" Y="2" Z="3" Rx="4" Ry="5" Rz="6""#;
+        // Two fields + EXTRA_ITEMS extras are allowed.
+        let unknown: String = (1..=2 + EXTRA_ITEMS)
+            .map(|i| format!(r#" U{i}="0""#))
+            .collect();
+        let after = format!(r#"<T Id="1"><P {frame}{unknown}/></T>"#);
+        let before = format!(r#"<T Id="1"><P{unknown} {frame}/></T>"#);
+        for text in [&after, &before] {
+            let (d, r) = run(text);
+            let t = r.unwrap_or_else(|e| panic!("{text}: {e:?}")).tally;
+            assert_eq!(
+                (t.unknown_attributes, d.p.rz),
+                (2 + EXTRA_ITEMS as u16, 6.0)
+            );
+        }
+        let one_more = |text: &str| text.replace("U1=", "U0=\"0\" U1=");
+        for text in [one_more(&after), one_more(&before)] {
+            assert_eq!(
+                run(&text).1.unwrap_err().kind,
+                DecodeErrorKind::TooManyExtras,
+                "{text}"
+            );
+        }
     }
 
     #[test]
