@@ -3,6 +3,7 @@
 #![allow(clippy::excessive_precision)] // the robot writes such texts
 
 use super::*;
+use crate::value::Time;
 extern crate std;
 use std::format;
 use std::string::String;
