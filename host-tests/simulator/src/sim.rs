@@ -5,12 +5,11 @@
 use crate::link::{Event, Link};
 use crate::pcap::Packet;
 use crate::report::{Cycle, Latency, PropertyFigures, Summary};
-use crate::show::{self, Show, Shown};
-use crate::{wire, RobotOptions};
+use crate::show::Show;
+use crate::RobotOptions;
 use gsi_config::{Device, Property};
 use std::collections::HashMap;
 use std::io::{ErrorKind, Write};
-use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
 /// The controller's supervision (S1) and state as it would show in RAPID.
@@ -325,125 +324,6 @@ impl Sim<'_> {
         Ok(())
     }
 
-    pub(crate) fn handle_reply(&mut self, bytes: &[u8], local: SocketAddr, at: Instant) {
-        if self.opts.pcap.is_some() {
-            let at_us = self.us(at);
-            self.packets.push(Packet {
-                at_us,
-                from: self.opts.to,
-                to: local,
-                payload: bytes.to_vec(),
-            });
-        }
-        // M11: a device property other than the reply is a periodic send
-        // (its own Id sequence): checked and counted, not matched.
-        let root = wire::root_name(bytes);
-        let other = self
-            .device
-            .sent()
-            .find(|p| root.as_deref() == Some(p.wire()) && p.wire() != self.reply_prop.wire());
-        if let Some(prop) = other {
-            match wire::check_reply(self.device, prop, bytes) {
-                Ok(_) => *self.received.entry(prop.name.clone()).or_default() += 1,
-                Err(e) => {
-                    self.s.malformed += 1;
-                    self.s
-                        .first_error
-                        .get_or_insert(format!("<{}>: {e}", prop.wire()));
-                }
-            }
-            return;
-        }
-        let reply = match wire::check_reply(self.device, self.reply_prop, bytes) {
-            Ok(r) => r,
-            Err(e) => {
-                self.s.malformed += 1;
-                let device = &self.device.name;
-                let expected = self.reply_prop.wire();
-                let why = match root.as_deref() {
-                    // The layout's own reply, but not as this device has it.
-                    Some(r) if r == expected => format!(
-                        "the reply <{r}> does not match device {device}'s layout ({e}): is the sensor built for another device?"
-                    ),
-                    Some(r) => format!(
-                        "a reply <{r}> is no message device {device} sends (expected <{expected}>): is the sensor built for another device, or with another RRI_REPLY (--reply)?"
-                    ),
-                    None => e,
-                };
-                self.s.first_error.get_or_insert(why);
-                return;
-            }
-        };
-        *self
-            .received
-            .entry(self.reply_prop.name.clone())
-            .or_default() += 1;
-        let Some(w) = self.waiting.get_mut(&reply.id) else {
-            self.s.wrong_id += 1;
-            self.sup.wrong_in_row += 1;
-            self.s.first_error.get_or_insert_with(|| {
-                format!("reply with Id {} to no message sent (M8)", reply.id)
-            });
-            return;
-        };
-        w.expected = w.expected.saturating_sub(1);
-        if w.answered {
-            self.s.duplicate_replies += 1;
-        } else {
-            w.answered = true;
-            let index = w.index;
-            self.cycles[index].reply_us = Some(self.us(at));
-            self.s.answered += 1;
-            // One definition of late everywhere (summary, CSV, plot):
-            // reply time minus actual send time, in µs, beyond one cycle.
-            let latency_us = self.us(at).saturating_sub(self.cycles[index].sent_us);
-            if latency_us > u64::from(self.s.rate_ms) * 1000 {
-                self.s.late += 1;
-                self.sup.late_in_row += 1;
-            }
-            self.sup.last_answer = Some(at);
-            if self.show.is_some() {
-                self.take_shown(bytes, index, reply.id, at);
-            }
-            if let Some(kept) = &mut self.replies {
-                kept.insert(reply.id, bytes.to_vec());
-            }
-            if !self.sup.operating && self.sup.tripped.is_none() {
-                self.sup.operating = true;
-                self.transition("OPERATING (first answer)");
-            }
-        }
-        if self.waiting.get(&reply.id).is_some_and(|w| w.expected == 0) {
-            self.waiting.remove(&reply.id);
-        }
-    }
-
-    /// `--show`: keeps the shown values of the reply answering message
-    /// `index`, and prints them unless a line was printed less than
-    /// `--show-every-ms` ago.
-    fn take_shown(&mut self, bytes: &[u8], index: usize, id: u32, at: Instant) {
-        let Some(show) = &self.show else { return };
-        let Some((ts, values)) = show.extract(bytes) else {
-            return;
-        };
-        let every = Duration::from_millis(self.opts.show_every_ms);
-        if self
-            .shown_at
-            .is_none_or(|last| at.duration_since(last) >= every)
-        {
-            self.shown_at = Some(at);
-            let text = show::line(show, id, &values);
-            let t = at.duration_since(self.start).as_secs_f64();
-            let log = &mut self.log;
-            self.bar.suspend(|| {
-                let _ = writeln!(log, "[{t:9.3}s] {text}");
-            });
-        }
-        if let Some(c) = self.cycles.get_mut(index) {
-            c.shown = Some(Shown { ts, values });
-        }
-    }
-
     /// S1 TimeOut: messages wait and nothing has been answered for longer.
     pub(crate) fn check_timeout(&mut self, now: Instant) {
         let oldest = self
@@ -502,72 +382,8 @@ impl Sim<'_> {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use std::path::PathBuf;
-    use std::sync::atomic::AtomicBool;
-    use std::sync::{mpsc, Arc};
+mod replies;
 
-    /// S1 after a stall of the simulator's own thread (a loaded host): a
-    /// reply the receiver thread stamped 1 ms after its message counts as
-    /// an answer in time even when the thread comes back after the next
-    /// send was due. Before, `pump` returned at the due schedule without
-    /// reading it, and 31 such catch-up cycles tripped `MaxLost` with
-    /// "no reply at all" though every reply had come in time.
-    #[test]
-    fn replies_received_during_a_stall_are_answers_in_time_s1() {
-        let gsi = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../firmware/gsi/GSI");
-        let device = gsi_config::load(&gsi, None).expect("GSI loads").device;
-        let reply_prop = device.sent().next().expect("a reply");
-        let opts = RobotOptions::new(gsi, SocketAddr::from(([127, 0, 0, 1], 6510)));
-        let (tx, events) = mpsc::channel();
-        let link = Link {
-            udp: None,
-            tcp: None,
-            events,
-            stop: Arc::new(AtomicBool::new(false)),
-            threads: Vec::new(),
-            closed: false,
-        };
-        let mut log = Vec::new();
-        let mut sim = Sim::new(&opts, &device, reply_prop, link, 4, &mut log);
-        let mut previous = Vec::new();
-        for (index, id) in (7u32..10).enumerate() {
-            let sent = Instant::now();
-            sim.cycles.push(Cycle {
-                cycle: index as u64,
-                id,
-                sent_us: sim.us(sent),
-                reply_us: None,
-                dropped_by_fault: false,
-                property: 0,
-                shown: None,
-            });
-            sim.waiting.insert(
-                id,
-                Waiting {
-                    index,
-                    sent,
-                    expected: 1,
-                    answered: false,
-                },
-            );
-            previous.push(id);
-            let app: String = (1..=18).map(|i| format!(" X{i}=\"0\"")).collect();
-            let reply =
-                format!("<SensData Id=\"{id}\" Ts=\"0\"><EStr>x</EStr><AppData{app}/></SensData>");
-            let local = SocketAddr::from(([127, 0, 0, 1], 6511));
-            let at = sent + Duration::from_millis(1);
-            tx.send(Event::Data(reply.into_bytes(), local, at))
-                .expect("channel");
-            // The thread "stalled": the next send was due a while ago.
-            std::thread::sleep(Duration::from_millis(10));
-            sim.pump(sent + Duration::from_millis(4), None);
-            sim.judge_previous(&mut previous);
-        }
-        assert_eq!((sim.s.answered, sim.s.late, sim.s.malformed), (3, 0, 0));
-        assert_eq!(sim.sup.in_row, 0);
-        assert!(sim.sup.tripped.is_none());
-    }
-}
+#[cfg(test)]
+#[path = "sim_tests.rs"]
+mod tests;
