@@ -12,17 +12,8 @@
 //! (the simulator) must not be rebuilt when the firmware's configuration
 //! (`RRI_GSI_DIR`) changes.
 #![no_std]
-#![deny(unsafe_code)]
-#![cfg_attr(
-    not(test),
-    deny(
-        clippy::indexing_slicing,
-        clippy::unwrap_used,
-        clippy::expect_used,
-        clippy::panic,
-        clippy::unreachable
-    )
-)]
+// No unsafe code, and no panic outside the tests: the workspace lints
+// (Cargo.toml).
 
 /// A message longer than the receive buffer: close the connection (M10).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -417,10 +417,10 @@ mod tests {
                 Ok(())
             }
             fn child_end(&mut self) -> Result<(), DecodeError> {
-                unreachable!("the walk went on after an error")
+                panic!("the walk went on after an error")
             }
             fn root_end(&mut self) -> Result<(), DecodeError> {
-                unreachable!("the walk went on after an error")
+                panic!("the walk went on after an error")
             }
         }
         let e = walk("<R Id=\"1\"><A/></R>", "R", &mut Refuse).unwrap_err();
