@@ -48,19 +48,7 @@ fn main() {
         PathBuf::from(setting("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
     let workspace = manifest.parent().unwrap_or(&manifest).to_path_buf();
 
-    for var in [
-        "RRI_GSI_DIR",
-        "RRI_DEVICE",
-        "RRI_REAL_DECIMALS",
-        "RRI_TIME_DECIMALS",
-        "RRI_CONTROLLER",
-        "RRI_SEND_PERIOD_MS",
-        "RRI_REPLY",
-        "RRI_PERIODIC",
-        "RRI_NETMASK",
-        "RRI_GATEWAY",
-        "RRI_HTTP_PORT",
-    ] {
+    for var in gsi_config::BUILD_SETTINGS {
         println!("cargo:rerun-if-env-changed={var}");
     }
     let gsi_config::Selection {

@@ -37,7 +37,7 @@ pub mod xml;
 
 pub use diag::{Diagnostic, Pos, Rule, Severity, Sink};
 pub use model::*;
-pub use selection::{setting, Selection, DEFAULT_GSI_DIR};
+pub use selection::{setting, Selection, BUILD_SETTINGS, DEFAULT_GSI_DIR};
 
 use std::fmt;
 use std::path::{Path, PathBuf};

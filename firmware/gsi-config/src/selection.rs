@@ -43,6 +43,26 @@ impl Selection {
     }
 }
 
+/// Every setting the firmware's build reads from the environment (the
+/// GSI folder and device, the number formats, the controller, the reply
+/// and periodic properties, the network, the diagnostics' port); the
+/// sensor (`RRI_SENSOR`) is `rri-active-sensor`'s. The build script
+/// tracks each, and `cargo sensor-check` clears them where a step builds
+/// the manual's configuration.
+pub const BUILD_SETTINGS: [&str; 11] = [
+    "RRI_GSI_DIR",
+    "RRI_DEVICE",
+    "RRI_REAL_DECIMALS",
+    "RRI_TIME_DECIMALS",
+    "RRI_CONTROLLER",
+    "RRI_SEND_PERIOD_MS",
+    "RRI_REPLY",
+    "RRI_PERIODIC",
+    "RRI_NETMASK",
+    "RRI_GATEWAY",
+    "RRI_HTTP_PORT",
+];
+
 /// A build setting from the environment: `None` when unset or blank, so
 /// `RRI_X=` means the default everywhere (the build script reads every
 /// `RRI_*` setting through this).

@@ -127,21 +127,6 @@ fn steps(sensor: &Path) -> Vec<Step> {
     ]
 }
 
-/// What the caller's environment gives every step but those that build
-/// the manual's configuration.
-const GSI_SETTINGS: [&str; 10] = [
-    "RRI_GSI_DIR",
-    "RRI_DEVICE",
-    "RRI_REAL_DECIMALS",
-    "RRI_TIME_DECIMALS",
-    "RRI_CONTROLLER",
-    "RRI_SEND_PERIOD_MS",
-    "RRI_REPLY",
-    "RRI_PERIODIC",
-    "RRI_NETMASK",
-    "RRI_GATEWAY",
-];
-
 /// The sensor file to check: `--sensor` (from the current directory),
 /// else `RRI_SENSOR` (from the workspace root, as the build takes it),
 /// else the distance example.
@@ -241,7 +226,7 @@ fn main() -> ExitCode {
             cmd.env("RRI_SENSOR", &sensor);
         }
         if !step.gsi {
-            for var in GSI_SETTINGS {
+            for var in gsi_config::BUILD_SETTINGS {
                 cmd.env_remove(var);
             }
         }
