@@ -32,12 +32,7 @@
 // A build script may stop the build where cargo broke its own promises
 // (OUT_DIR, the manifest's directory): the workspace's no-panic lints are
 // for the code the boards run.
-#![allow(
-    clippy::expect_used,
-    clippy::unwrap_used,
-    clippy::panic,
-    clippy::indexing_slicing
-)]
+#![allow(clippy::expect_used)]
 
 use gsi_config::setting;
 use rri_vocabulary::{parse_ipv4, MAX_DECIMALS};
