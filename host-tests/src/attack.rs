@@ -66,17 +66,6 @@ impl RawIpv4 {
     }
 }
 
-fn checksum(b: &[u8]) -> u16 {
-    let mut sum: u32 = b
-        .chunks(2)
-        .map(|c| u32::from(u16::from_be_bytes([c[0], *c.get(1).unwrap_or(&0)])))
-        .sum();
-    while sum > 0xffff {
-        sum = (sum & 0xffff) + (sum >> 16);
-    }
-    !(sum as u16)
-}
-
 /// One IPv4 fragment of a UDP datagram: `payload` at byte `offset`, "more
 /// fragments" set, a right header checksum. `ident` 0: the kernel picks
 /// one from the counter it numbers every datagram from `from` to `to`
@@ -99,8 +88,8 @@ pub fn fragment(
     p.extend_from_slice(&[64, 17, 0, 0]);
     p.extend_from_slice(&from.octets());
     p.extend_from_slice(&to.octets());
-    let sum = checksum(&p);
-    p[10..12].copy_from_slice(&sum.to_be_bytes());
+    // The header checksum (RFC 1071): smoltcp's.
+    smoltcp::wire::Ipv4Packet::new_unchecked(&mut p[..]).fill_checksum();
     p.extend_from_slice(payload);
     p
 }
@@ -213,11 +202,12 @@ mod tests {
         let to = SocketAddrV4::new(Ipv4Addr::new(10, 49, 65, 74), 3002);
         let p = first_alone(from, to, 0x8001, 2000);
         assert_eq!(p.len(), 20 + FRAGMENT);
-        assert_eq!(checksum(&p[..20]), 0);
+        let right = |h: &[u8]| smoltcp::wire::Ipv4Packet::new_unchecked(h).verify_checksum();
+        assert!(right(&p[..20]));
         assert_eq!(u16::from_be_bytes([p[6], p[7]]), 0x2000, "MF, offset 0");
         assert_eq!(&p[20..24], &[0x9c, 0x40, 0x0b, 0xba], "ports 40000 → 3002");
         let m = fragment(*from.ip(), *to.ip(), 1, 60_000, &[0; 8]);
         assert_eq!(u16::from_be_bytes([m[6], m[7]]), 0x2000 | 7500);
-        assert_eq!(checksum(&m[..20]), 0);
+        assert!(right(&m[..20]));
     }
 }
