@@ -207,6 +207,8 @@ pub struct Ran {
     /// [`RunArgs::figures_from_status`]: the device's own figures, read
     /// over Ethernet, or why not.
     pub figures: Option<Result<(), String>>,
+    /// The warm-up's messages sent and answered (the device counts them).
+    pub warm: (u64, u64),
 }
 
 /// Waits for the device to start (its banner, then `ready`, each within
@@ -334,6 +336,7 @@ pub fn drive(
         http_attacked: args.http_attack,
         http_failures,
         figures,
+        warm,
     })
 }
 
@@ -369,7 +372,15 @@ pub fn verdict(name: &str, ran: &Ran) -> Result<(), Failure> {
             .iter()
             .rev()
             .find_map(|l| crate::counters::DeviceCounters::parse(l))
-            .map(|c| crate::counters::LossSplit::of(ran.summary.sent, ran.summary.answered, &c));
+            .map(|c| {
+                let i = &ran.summary.injected;
+                crate::counters::LossSplit::of_counted_run(
+                    (ran.summary.sent, ran.summary.answered),
+                    ran.warm,
+                    i.garbage + i.duplicated,
+                    c,
+                )
+            });
         let before_firmware = split.is_some_and(|s| s.lost() == s.nic);
         return Err(Failure {
             reason: format!(
