@@ -117,8 +117,11 @@ pub fn run(args: &Args, dir: &Path) -> Result<bool, String> {
         if let Some(why) = refused {
             println!("      {why}");
         }
-        if worst.as_ref().is_none_or(|(w, _)| full > *w) {
-            worst = Some((full, input.name.clone()));
+        // A refused message has no reply frame (full 0): what it costs is
+        // its compute, the decoding that refused it.
+        let cost = if input.accepted { full } else { compute };
+        if worst.as_ref().is_none_or(|(w, _)| cost > *w) {
+            worst = Some((cost, input.name.clone()));
         }
     }
     finish(board, "during the corpus")?;
@@ -126,7 +129,7 @@ pub fn run(args: &Args, dir: &Path) -> Result<bool, String> {
         return Ok(true);
     };
     println!(
-        "  the costliest: {name}, {full} instructions ({:.0} µs @216 MHz, {:.0} % of the quarter-cycle budget of {BUDGET})",
+        "  the costliest: {name}, {full} instructions ({:.0} µs @216 MHz, {:.0} % of the quarter-cycle budget of {BUDGET}; full path, or compute for a refused message)",
         full as f64 / 216.0,
         full as f64 * 100.0 / BUDGET as f64
     );
