@@ -12,6 +12,7 @@
 //! printed, its timing is not judged, and the counted run continues its Id
 //! sequence. A wrong or malformed reply fails in either.
 
+use crate::counters::LossSplit;
 use crate::qemu::Qemu;
 use crate::robot::report::Summary;
 use crate::robot::{run, RobotOptions};
@@ -374,14 +375,10 @@ pub fn verdict(name: &str, ran: &Ran) -> Result<(), Failure> {
             .find_map(|l| crate::counters::DeviceCounters::parse(l))
             .map(|c| {
                 let i = &ran.summary.injected;
-                crate::counters::LossSplit::of_counted_run(
-                    (ran.summary.sent, ran.summary.answered),
-                    ran.warm,
-                    i.garbage + i.duplicated,
-                    c,
-                )
+                let run = (ran.summary.sent, ran.summary.answered);
+                LossSplit::of_counted_run(run, ran.warm, i.garbage + i.duplicated, c)
             });
-        let before_firmware = split.is_some_and(|s| s.lost() == s.nic);
+        let before_firmware = LossSplit::lost_before_firmware(&ran.summary, ran.warm, &ran.log);
         return Err(Failure {
             reason: format!(
                 "{} of {} robot messages not answered during the HTTP catalogue ({})",
@@ -436,7 +433,8 @@ pub fn verdict(name: &str, ran: &Ran) -> Result<(), Failure> {
         }
         Some(reason) => Err(Failure {
             reason,
-            late_only: ran.summary.late_only(),
+            late_only: ran.summary.late_only()
+                || LossSplit::lost_before_firmware(&ran.summary, ran.warm, &ran.log),
         }),
     }
 }

@@ -139,17 +139,30 @@ fn hostile(manual: &str) -> ExitCode {
         manual.to_string(),
         true,
     )];
-    for (i, input) in inputs.iter().enumerate() {
+    // Beside the corpus qemu-bench gates: a message handed over late (issue
+    // 36, finding 2, not fixed): every real a halfway case, the last byte
+    // wrong, so both paths parse every number. Printed here, not gated.
+    let late = inputs
+        .iter()
+        .find(|i| i.name == "every real a halfway case")
+        .map(|i| {
+            let mut bytes = i.with_id(1_234_567_890);
+            if let Some(last) = bytes.last_mut() {
+                *last = b'x';
+            }
+            ("handed over late (not fixed)".to_string(), bytes, false)
+        });
+    let all = inputs
+        .iter()
+        .map(|i| (i.name.clone(), i.with_id(1_234_567_890), i.accepted))
+        .chain(late);
+    for (i, (name, bytes, accepted)) in all.enumerate() {
         let path = dir.join(format!("{i}.xml"));
-        if let Err(e) = std::fs::write(&path, input.with_id(1_234_567_890)) {
+        if let Err(e) = std::fs::write(&path, bytes) {
             eprintln!("cannot write {}: {e}", path.display());
             return ExitCode::FAILURE;
         }
-        files.push((
-            input.name.clone(),
-            path.display().to_string(),
-            input.accepted,
-        ));
+        files.push((name, path.display().to_string(), accepted));
     }
     println!("decode cost per message under callgrind ((Ir(N=200) - Ir(N=100)) / 100), layout AnyDevice:");
     println!(
