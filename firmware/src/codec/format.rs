@@ -330,13 +330,26 @@ impl Writer<'_> {
     }
 
     /// A time in seconds with exactly `decimals` decimals, rounded half
-    /// away from zero from the exact microseconds.
+    /// away from zero from the exact microseconds; towards zero where away
+    /// would leave the range a `Time` holds (the first and last 0.5 ms of
+    /// it at 3 decimals), so that what we send, we accept.
     pub fn time(&mut self, t: Time, decimals: u8) {
         let decimals = decimals.min(MAX_DECIMALS);
         let micros = t.as_micros();
         let magnitude = micros.unsigned_abs();
         let unit = pow10(MAX_DECIMALS - decimals);
-        let q = (magnitude + unit / 2) / unit;
+        // The largest magnitude a time of this sign holds, in µs.
+        let limit = if micros < 0 {
+            i64::MIN.unsigned_abs()
+        } else {
+            i64::MAX.unsigned_abs()
+        };
+        let q = magnitude.saturating_add(unit / 2) / unit;
+        let q = if q.saturating_mul(unit) > limit {
+            q.saturating_sub(1)
+        } else {
+            q
+        };
         self.fixed(micros < 0 && q != 0, q, decimals);
     }
 }
@@ -435,8 +448,35 @@ mod tests {
         assert_eq!(time(86_400_123_000, 3), "86400.123");
         assert_eq!(time(-1_500, 3), "-0.002");
         assert_eq!(time(-499, 3), "0.000");
-        assert_eq!(time(i64::MIN, 3), "-9223372036854.776");
         assert_eq!(time(7, 0), "0");
+    }
+
+    /// What we send, we accept: at the ends of the range, rounding half
+    /// away from zero would write a time no `Time` holds (the decoder,
+    /// exact, refuses `-9223372036854.776`), so there it rounds towards
+    /// zero. Found by the `decode_manual` fuzz corpus once the least time
+    /// was accepted (issue 36).
+    #[test]
+    fn the_ends_of_the_range_round_to_a_time_that_is_accepted() {
+        for (micros, d, want) in [
+            (i64::MIN, 3, "-9223372036854.775"),
+            (i64::MAX, 3, "9223372036854.775"),
+            (i64::MIN, 6, "-9223372036854.775808"),
+            (i64::MAX, 0, "9223372036854"),
+            (i64::MIN + 500, 3, "-9223372036854.775"),
+            (i64::MAX - 1_000, 3, "9223372036854.775"),
+        ] {
+            let text = time(micros, d);
+            assert_eq!(text, want);
+            assert!(
+                crate::codec::number::parse_time(text.as_bytes()).is_ok(),
+                "{text} is refused"
+            );
+        }
+        // Short of the ends, half away from zero as before.
+        assert_eq!(time(-9_223_372_036_854_774_500, 3), "-9223372036854.775");
+        assert_eq!(time(9_223_372_036_854_774_500, 3), "9223372036854.775");
+        assert_eq!(time(9_223_372_036_854_774_499, 3), "9223372036854.774");
     }
 
     /// Times of ±(10^k − 1) and ±10^k µs with 6 decimals, 8 to 21
