@@ -136,6 +136,7 @@ impl Web {
                 Err(_) => failures.push("the HTTP catalogue panicked".into()),
             }
         }
+        let mut seen_operating = false;
         if let Some(loads) = during.loads {
             let seen = loads.join().unwrap_or_default();
             println!(
@@ -143,6 +144,17 @@ impl Web {
                 seen.len(),
                 seen.last().map_or("none", |s| s.as_str())
             );
+            // The state while the robot ran is judged from the loads
+            // during the run: after it, the device rightly leaves
+            // OPERATING once TimeOut passes without a message (S1).
+            let running = format!("{device} OPERATING ");
+            let loaded = seen.iter().any(|s| !s.starts_with("load failed"));
+            seen_operating = seen.iter().any(|s| s.starts_with(&running));
+            if loaded && !seen_operating {
+                failures.push(format!(
+                    "the page in the browser never showed {device} OPERATING during the run"
+                ));
+            }
             failures.extend(seen.into_iter().filter(|s| s.starts_with("load failed")));
         }
         if let (Some((browser, png)), Some(http), Some(s)) = (&self.browser, self.http, summary) {
@@ -152,8 +164,17 @@ impl Web {
             // on the way back is an answer all the same).
             let low = warm.1 + s.answered + s.duplicate_replies;
             let high = warm.0 + s.sent + s.injected.duplicated;
+            // After the run: OPERATING, or, once the page showed
+            // OPERATING during the run, the communication error S1 reports
+            // when TimeOut passes without a message (a browser start on a
+            // loaded host can take longer than TimeOut).
+            let states: &[&str] = if seen_operating {
+                &["OPERATING", "ERROR 112602"]
+            } else {
+                &["OPERATING"]
+            };
             match crate::browser::dump_dom(browser, &url)
-                .and_then(|r| crate::browser::check(&r, device, "OPERATING", low, high).map(|()| r))
+                .and_then(|r| crate::browser::check(&r, device, states, low, high).map(|()| r))
             {
                 Ok(r) => println!(
                     "browser: the page shows {} {} answered {} (the simulator: {low} answered of {high} sent): right",
