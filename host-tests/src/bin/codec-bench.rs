@@ -14,7 +14,10 @@
 //! `cargo codec-bench -- --hostile` measures the hostile corpus of the
 //! QEMU bench (every input `MAX_RECEIVE_LEN` bytes, accepted or rejected)
 //! the same way, decode only, and prints instructions per message and per
-//! byte beside the manual's message.
+//! byte beside the manual's message. `--hostile --keep DIR` writes the
+//! inputs to DIR (`0.xml`, `1.xml`, … in the table's order) and keeps them,
+//! for a per-function look: `valgrind --tool=callgrind <this binary>
+//! DIR/5.xml 100 --only decode-any`, then `callgrind_annotate`.
 
 use host_tests::layouts::anydevice::{self as layout, RobDataMessage, SensDataMessage};
 use rri_firmware::baseline::{self, Naive};
@@ -126,10 +129,13 @@ fn decode_any(bytes: &[u8], n: u64) -> Result<usize, String> {
 }
 
 /// `--hostile`: decode cost of each hostile input and of the manual's
-/// message under callgrind.
-fn hostile(manual: &str) -> ExitCode {
+/// message under callgrind; the inputs are kept in `keep` when given.
+fn hostile(manual: &str, keep: Option<&str>) -> ExitCode {
     let inputs = host_tests::qemu_bench::hostile();
-    let dir = std::env::temp_dir().join(format!("codec-bench-hostile-{}", std::process::id()));
+    let dir = match keep {
+        Some(d) => std::path::PathBuf::from(d),
+        None => std::env::temp_dir().join(format!("codec-bench-hostile-{}", std::process::id())),
+    };
     if let Err(e) = std::fs::create_dir_all(&dir) {
         eprintln!("cannot create {}: {e}", dir.display());
         return ExitCode::FAILURE;
@@ -208,7 +214,9 @@ fn hostile(manual: &str) -> ExitCode {
             Some(_) => {}
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
+    if keep.is_none() {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
     if let Some(r) = reference {
         println!(
             "  worst per byte: {:.1} ({}), {:.2}x the manual's message ({r:.1})",
@@ -267,6 +275,7 @@ fn callgrind_ir(file: &str, n: u64, only: &str) -> Result<u64, String> {
 fn usage() -> ExitCode {
     eprintln!("usage: cargo codec-bench -- <robot-message.xml> <N> [--callgrind] [--only ours|baseline|tokenizer|decode|encode|decode-any|general]");
     eprintln!("       cargo codec-bench -- --hostile   (the hostile corpus under callgrind)");
+    eprintln!("       cargo codec-bench -- --hostile --keep DIR   (and keep its inputs in DIR)");
     ExitCode::from(2)
 }
 
@@ -274,7 +283,15 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.first().map(String::as_str) == Some("--hostile") {
         let manual = host_tests::shared_rri().join("examples/messages/RobData.xml");
-        return hostile(&manual.display().to_string());
+        let keep = match args.get(1).map(String::as_str) {
+            Some("--keep") => match args.get(2) {
+                Some(dir) => Some(dir.as_str()),
+                None => return usage(),
+            },
+            Some(_) => return usage(),
+            None => None,
+        };
+        return hostile(&manual.display().to_string(), keep);
     }
     let (Some(file), Some(n)) = (
         args.first(),
