@@ -2,7 +2,7 @@
 // Do not edit: change Description.xml / Configuration.xml and rebuild.
 
 use crate::codec::compiled::{self, Scan};
-use crate::codec::{encode, BufferTooSmall, DecodeError, Decoded, Encoded};
+use crate::codec::{encode, BufferTooSmall, DecodeError, Decoded, Encoded, HandOver};
 use crate::engine::{Config as EngineConfig, Periodic, Pinned};
 use crate::properties::{decode_committed, DeviceSet, RobotSet};
 use crate::schema::{
@@ -299,8 +299,12 @@ impl MessageCodec for RobDataMessage {
     /// write it, each step named for what it matches; `None` at the first byte it does not
     /// expect, and the general decoder reads the datagram.
     #[inline]
-    fn decode_compiled(bytes: &[u8], data: &mut Self::Data) -> Option<Decoded> {
-        let (mut s, root) = Scan::root(bytes, b"<RobData")?;
+    fn decode_compiled_into(
+        bytes: &[u8],
+        data: &mut Self::Data,
+        hand_over: &mut HandOver,
+    ) -> Option<Decoded> {
+        let (mut s, root) = Scan::root(bytes, b"<RobData", hand_over)?;
         s.body()?;
         // <RobMode>…</RobMode>
         if s.open(b"<RobMode>") {

@@ -129,9 +129,18 @@ pub(crate) fn emit_decode_compiled(
     e.doc("write it, each step named for what it matches; `None` at the first byte it does not");
     e.doc("expect, and the general decoder reads the datagram.");
     e.line("#[inline]");
-    e.open("fn decode_compiled(bytes: &[u8], data: &mut Self::Data) -> Option<Decoded>");
+    // The signature as rustfmt breaks it (over 100 columns on one line).
+    e.line("fn decode_compiled_into(");
+    for param in [
+        "bytes: &[u8],",
+        "data: &mut Self::Data,",
+        "hand_over: &mut HandOver,",
+    ] {
+        e.line(format!("    {param}"));
+    }
+    e.open(") -> Option<Decoded>");
     e.line(format!(
-        "let (mut s, root) = Scan::root(bytes, {})?;",
+        "let (mut s, root) = Scan::root(bytes, {}, hand_over)?;",
         bytes_lit(&format!("<{w}"))
     ));
     let close = bytes_lit(&format!("</{w}>"));

@@ -167,6 +167,9 @@ pub fn generate(device: &Device, opts: &Options) -> Result<String, Vec<Diagnosti
     if has_tx {
         codec.push("Encoded");
     }
+    if has_rx {
+        codec.push("HandOver");
+    }
     // (rustfmt puts `codec::compiled::…` before `codec::{…}`.)
     if has_rx {
         if compiled::names_module(device) {

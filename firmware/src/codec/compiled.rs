@@ -34,7 +34,10 @@
 //! more pass than the general path alone.
 
 use super::decode::{Decoded, Tally};
-use super::number::{is_xml_space, parse_f32, parse_time, parse_u32, plain_prefix, MAX_NUMBER_LEN};
+use super::hand_over::HandOver;
+use super::number::{
+    digit_count, is_xml_space, parse_f32, parse_time, parse_u32, plain_prefix, MAX_NUMBER_LEN,
+};
 use crate::codec::decode::parse_bool;
 use crate::value::{RriString, Time, MAX_STRING_LEN};
 
@@ -153,18 +156,27 @@ pub struct Scan<'a> {
     /// reads the same run again: this makes that a jump, so each run is
     /// read once however many attributes are tried after it.
     gap: (usize, usize),
+    /// The reals read the slow way, for the general path should this one
+    /// hand the datagram over ([`HandOver`]).
+    hand_over: &'a mut HandOver,
 }
 
 impl<'a> Scan<'a> {
     /// The prologue and the root's start tag up to its own attributes:
     /// XML whitespace, an optional XML declaration, whitespace, `open`
-    /// (`<RobData`), then `Id="…"` and optionally `Ts="…"` (M1).
+    /// (`<RobData`), then `Id="…"` and optionally `Ts="…"` (M1). The reals
+    /// read the slow way are kept in `hand_over`.
     #[inline(always)]
-    pub fn root<const N: usize>(bytes: &'a [u8], open: &[u8; N]) -> Option<(Self, Root)> {
+    pub fn root<const N: usize>(
+        bytes: &'a [u8],
+        open: &[u8; N],
+        hand_over: &'a mut HandOver,
+    ) -> Option<(Self, Root)> {
         let mut s = Scan {
             rest: bytes,
             tally: Tally::default(),
             gap: (usize::MAX, 0),
+            hand_over,
         };
         s.ws();
         if s.rest.first() == Some(&b'<') && s.rest.get(1) == Some(&b'?') {
@@ -365,12 +377,13 @@ impl<'a> Scan<'a> {
     #[inline(never)]
     fn real_other(&mut self) -> Option<f32> {
         let head = self.rest.get(..NUMBER_VALUE_LEN + 1).unwrap_or(self.rest);
-        let len = head.iter().position(|&b| class(b) & VALUE == 0)?;
+        let len = value_len(head)?;
         let (value, rest) = self.rest.split_at_checked(len)?;
         let (&b'"', rest) = rest.split_first()? else {
             return None;
         };
         let v = real(value)?;
+        self.hand_over.keep(value, v);
         self.rest = rest;
         Some(v)
     }
@@ -397,6 +410,23 @@ impl<'a> Scan<'a> {
             ts: root.ts,
             tally: self.tally,
         })
+    }
+}
+
+/// Where the attribute value at the start of `head` ends (the first byte
+/// not of [`VALUE`]), or `None` when `head` ends first: its runs of digits
+/// four bytes a step ([`digit_count`]), any other byte by its class. A
+/// long real is mostly digits: this is a third of the byte-at-a-time scan.
+#[inline(always)]
+fn value_len(head: &[u8]) -> Option<usize> {
+    let mut rest = head;
+    loop {
+        rest = rest.get(digit_count(rest)..).unwrap_or(&[]);
+        match rest {
+            [b, tail @ ..] if class(*b) & VALUE != 0 => rest = tail,
+            [_, ..] => return Some(head.len() - rest.len()),
+            [] => return None,
+        }
     }
 }
 

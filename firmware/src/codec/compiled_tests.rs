@@ -8,7 +8,13 @@ fn scan(text: &str) -> Scan<'_> {
         rest: text.as_bytes(),
         tally: Tally::default(),
         gap: (usize::MAX, 0),
+        hand_over: hand_over(text.as_bytes()),
     }
+}
+
+/// A hand-over table for `bytes` that lives as long as the test.
+fn hand_over(bytes: &[u8]) -> &'static mut HandOver {
+    std::boxed::Box::leak(std::boxed::Box::new(HandOver::new(bytes)))
 }
 
 /// A long run of whitespace before attributes that are not there: every
@@ -65,10 +71,15 @@ fn literals_compare_a_word_at_a_time_at_every_length() {
 
 #[test]
 fn m1_the_root_its_id_and_ts() {
-    let (s, root) = Scan::root(b" \n<RobData Id=\"7\" Ts=\"1.5\">", b"<RobData").unwrap();
+    let (s, root) = Scan::root(
+        b" \n<RobData Id=\"7\" Ts=\"1.5\">",
+        b"<RobData",
+        hand_over(b""),
+    )
+    .unwrap();
     assert_eq!((root.id, root.ts), (7, Some(Time::from_micros(1_500_000))));
     assert_eq!(rest(&s), ">");
-    let (_, root) = Scan::root(b"<RobData\tId = \"7\"/>", b"<RobData").unwrap();
+    let (_, root) = Scan::root(b"<RobData\tId = \"7\"/>", b"<RobData", hand_over(b"")).unwrap();
     assert_eq!((root.id, root.ts), (7, None));
     for bad in [
         "<RobDataX Id=\"7\">",
@@ -79,7 +90,10 @@ fn m1_the_root_its_id_and_ts() {
         "<RobData>",
         "<!--c--><RobData Id=\"7\">",
     ] {
-        assert!(Scan::root(bad.as_bytes(), b"<RobData").is_none(), "{bad}");
+        assert!(
+            Scan::root(bad.as_bytes(), b"<RobData", hand_over(b"")).is_none(),
+            "{bad}"
+        );
     }
 }
 
@@ -93,7 +107,10 @@ fn m1_declarations_as_xmlparser_reads_them() {
         "<?xml version=\"1.0\"\tstandalone=\"yes\"\n?>",
     ] {
         let text = format!("{good}\n<R Id=\"1\">");
-        assert!(Scan::root(text.as_bytes(), b"<R").is_some(), "{good}");
+        assert!(
+            Scan::root(text.as_bytes(), b"<R", hand_over(b"")).is_some(),
+            "{good}"
+        );
     }
     for handed_over in [
         "<?xml version='1.0'?>",
@@ -110,7 +127,7 @@ fn m1_declarations_as_xmlparser_reads_them() {
     ] {
         let text = format!("{handed_over}<R Id=\"1\">");
         assert!(
-            Scan::root(text.as_bytes(), b"<R").is_none(),
+            Scan::root(text.as_bytes(), b"<R", hand_over(b"")).is_none(),
             "{handed_over}"
         );
     }

@@ -16,7 +16,7 @@
 //! 2. An approximation in `f64` (a few `f64` ulps off, far below an `f32`
 //!    ulp) gives a candidate that is right or one `f32` step away.
 //! 3. The candidate is checked against the midpoints to its neighbours by
-//!    comparing `D × 10^e` with `m × 2^q` exactly, in a fixed 640-bit
+//!    comparing `D × 10^e` with `m × 2^q` exactly, in a fixed 512-bit
 //!    integer (the largest operand needs about 430 bits), and moved at most
 //!    a step or two. Ties round to even.
 
@@ -25,8 +25,8 @@ use core::cmp::Ordering;
 
 /// Significant digits taken exactly (see the module doc for why 120).
 const KEPT: usize = 120;
-/// 32-bit words in [`Big`]: 640 bits.
-const WORDS: usize = 20;
+/// 32-bit words in [`Big`]: 512 bits, for the largest operand's 430.
+const WORDS: usize = 16;
 /// Beyond these, a value is out of range (≥ 10^39 > `f32::MAX`) or rounds
 /// to zero (< 10^-46 < 2^-150, half the smallest subnormal).
 const MAX_MAGNITUDE: i32 = 38;
@@ -81,9 +81,9 @@ impl<'t> Parts<'t> {
 }
 
 /// The cut significant digits of a decimal. The digits go into `value`
-/// nine at a time, each nine one word operation, in a tight loop per run
-/// of digits: a hostile message may hold dozens of 48-character numbers
-/// that all come here.
+/// eight at a time, each eight two word steps ([`eight`]) and one
+/// multiply-add of the big integer: a hostile message may hold dozens of
+/// 48-character numbers that all come here.
 fn cut(
     Parts {
         int,
@@ -104,21 +104,21 @@ fn cut(
     let mut value = Big::from_u64(0);
     // The first 19 digits as a `u64` too, from the same pieces (a second
     // pass over them cost the hostile worst case 2,900 instructions).
-    let (mut lead, mut in_lead) = (0u64, 0usize);
+    let mut lead = Lead::default();
     for run in [int_kept, fraction_kept] {
-        for piece in run.chunks(9) {
-            let v = piece
+        let mut pieces = run.chunks_exact(8);
+        for piece in &mut pieces {
+            let v = eight(piece);
+            value.mul_add(100_000_000, v);
+            lead.push(v, 8);
+        }
+        let rest = pieces.remainder();
+        if !rest.is_empty() {
+            let v = rest
                 .iter()
                 .fold(0u32, |v, &b| v * 10 + u32::from(b.wrapping_sub(b'0')));
-            // `piece.len() <= 9`: always in the table.
-            let scale = |n: usize| POW10_U32.get(n).copied().unwrap_or(1);
-            value.mul_add(scale(piece.len()), v);
-            let take = piece.len().min(19 - in_lead);
-            if take > 0 {
-                let head = v / scale(piece.len() - take);
-                lead = lead * u64::from(scale(take)) + u64::from(head);
-                in_lead += take;
-            }
+            value.mul_add(pow10_u32(rest.len()), v);
+            lead.push(v, rest.len());
         }
     }
     let sticky = int_cut.iter().chain(fraction_cut).any(|&b| b != b'0');
@@ -127,11 +127,54 @@ fn cut(
     let places = int_cut.len() as i32 - fraction_kept.len() as i32 - skipped.len() as i32;
     Cut {
         value,
-        lead,
+        lead: lead.value,
         kept,
         exponent: exponent.saturating_add(places),
         sticky,
     }
+}
+
+/// The first 19 digits of a number as they go by in pieces.
+#[derive(Default)]
+struct Lead {
+    value: u64,
+    digits: usize,
+}
+
+impl Lead {
+    /// A piece of `len` (at most 9) digits worth `v`: as many of them as
+    /// still fit the 19.
+    #[inline(always)]
+    fn push(&mut self, v: u32, len: usize) {
+        let take = len.min(19 - self.digits);
+        if take > 0 {
+            let head = v / pow10_u32(len - take);
+            self.value = self.value * u64::from(pow10_u32(take)) + u64::from(head);
+            self.digits += take;
+        }
+    }
+}
+
+/// The value of eight ASCII digits, first digit most significant: four
+/// at a time in a word (after `- '0'` each byte is 0..9; times 10 plus
+/// the next byte gives two-digit values 0..99 in bytes 0 and 2, which
+/// never carry), then the two halves. About a third of the instructions
+/// of a byte at a time.
+#[inline(always)]
+fn eight(piece: &[u8]) -> u32 {
+    let four = |w: Option<&[u8; 4]>| {
+        let v = u32::from_le_bytes(w.copied().unwrap_or(*b"0000")).wrapping_sub(0x3030_3030);
+        let v = v.wrapping_mul(10).wrapping_add(v >> 8);
+        (v & 0xff) * 100 + ((v >> 16) & 0xff)
+    };
+    let (hi, lo) = piece.split_at_checked(4).unwrap_or((piece, &[]));
+    four(hi.first_chunk::<4>()) * 10_000 + four(lo.first_chunk::<4>())
+}
+
+/// 10^n for a run of at most nine digits (1 beyond: never asked).
+#[inline(always)]
+fn pow10_u32(n: usize) -> u32 {
+    POW10_U32.get(n).copied().unwrap_or(1)
 }
 
 /// Powers of ten that fit a `u32`: the scale of a run of up to nine digits.
@@ -226,13 +269,22 @@ impl Big {
         }
     }
 
+    /// The words in use.
+    #[inline(always)]
+    fn used(&self) -> &[u32] {
+        self.words.get(..self.len).unwrap_or(&[])
+    }
+
     /// `self = self × m + a`.
+    #[inline(always)]
     fn mul_add(&mut self, m: u32, a: u32) {
         let mut carry = u64::from(a);
-        for w in self.words.iter_mut().take(self.len) {
-            let v = u64::from(*w) * u64::from(m) + carry;
-            *w = v as u32;
-            carry = v >> 32;
+        if let Some(used) = self.words.get_mut(..self.len) {
+            for w in used {
+                let v = u64::from(*w) * u64::from(m) + carry;
+                *w = v as u32;
+                carry = v >> 32;
+            }
         }
         if carry != 0 {
             self.push(carry as u32);
@@ -264,46 +316,43 @@ impl Big {
         }
     }
 
+    /// `self <<= bits`, in place from the top down: the word that lands
+    /// at `i + words` is made of words `i` and `i - 1`, which are not
+    /// written yet.
     fn shl(&mut self, bits: u32) {
         if self.len == 0 {
             return;
         }
         let (words, bits) = ((bits / 32) as usize, bits % 32);
-        let len = self.len + words + 1;
+        let old = self.len;
+        let len = old + words + 1;
         if len > WORDS {
             self.overflow = true;
             return;
         }
-        // In place, from the top down: word `i` takes from words
-        // `i - words` and `i - words - 1`, which are not written yet.
-        let old_len = self.len;
-        for i in (0..len).rev() {
-            let word = |j: Option<usize>, w: &[u32; WORDS]| {
-                j.filter(|&j| j < old_len)
-                    .and_then(|j| w.get(j))
-                    .copied()
-                    .unwrap_or(0)
-            };
-            let hi = word(i.checked_sub(words), &self.words);
-            let lo = word(i.checked_sub(words + 1), &self.words);
-            if let Some(slot) = self.words.get_mut(i) {
-                *slot = if bits == 0 {
-                    hi
-                } else {
-                    hi << bits | lo >> (32 - bits)
-                };
+        let mut above = 0u32;
+        for i in (0..old).rev() {
+            let w = self.words.get(i).copied().unwrap_or(0);
+            if let Some(slot) = self.words.get_mut(i + words + 1) {
+                // `bits == 0`: `w >> 32` would overflow; nothing moves up.
+                *slot = above << bits | w.checked_shr(32 - bits).unwrap_or(0);
             }
+            above = w;
+        }
+        if let Some(slot) = self.words.get_mut(words) {
+            *slot = above << bits;
+        }
+        if let Some(low) = self.words.get_mut(..words) {
+            low.fill(0);
         }
         self.len = len;
         self.trim();
     }
 
     fn cmp(&self, other: &Big) -> Ordering {
-        self.len.cmp(&other.len).then_with(|| {
-            let a = self.words.iter().take(self.len).rev();
-            let b = other.words.iter().take(other.len).rev();
-            a.cmp(b)
-        })
+        self.len
+            .cmp(&other.len)
+            .then_with(|| self.used().iter().rev().cmp(other.used().iter().rev()))
     }
 }
 
@@ -332,17 +381,25 @@ fn midpoint(low: u32, high: u32) -> (u64, i32) {
 fn compare(d: &Big, c: &Cut, (m, q): (u64, i32)) -> Result<Ordering, NumberError> {
     // D × 5^e × 2^e against m × 2^q: the powers of five go to the side
     // where they are positive, the powers of two likewise.
-    let mut left = d.clone();
     let mut right = Big::from_u64(m);
-    if c.exponent >= 0 {
-        left.mul_pow5(c.exponent.unsigned_abs());
-    } else {
+    let shift = c.exponent - q;
+    // The digits are copied only when they are scaled: a robot's reals
+    // have a fraction (a negative exponent), and their midpoint a smaller
+    // power of two, so usually only the midpoint's side grows.
+    let mut scaled;
+    let left = match c.exponent >= 0 || shift > 0 {
+        true => {
+            scaled = d.clone();
+            scaled.mul_pow5(c.exponent.max(0).unsigned_abs());
+            scaled.shl(shift.max(0).unsigned_abs());
+            &scaled
+        }
+        false => d,
+    };
+    if c.exponent < 0 {
         right.mul_pow5(c.exponent.unsigned_abs());
     }
-    let shift = c.exponent - q;
-    if shift >= 0 {
-        left.shl(shift.unsigned_abs());
-    } else {
+    if shift < 0 {
         right.shl(shift.unsigned_abs());
     }
     if left.overflow || right.overflow {
@@ -360,7 +417,7 @@ fn compare(d: &Big, c: &Cut, (m, q): (u64, i32)) -> Result<Ordering, NumberError
 /// the first 19 digits and exact powers of ten.
 fn approximate(c: &Cut) -> f64 {
     let n = c.kept.min(19);
-    let mut v = c.lead as f64;
+    let mut v = u64_to_f64(c.lead);
     // Within the magnitude bounds, |e| < 190: at most nine steps.
     let mut e = c.exponent + (c.kept - n) as i32;
     while e != 0 {
@@ -376,6 +433,14 @@ fn approximate(c: &Cut) -> f64 {
         }
     }
     v
+}
+
+/// `v as f64`, from its two halves: each half and the high one's scaling
+/// are exact, so the one addition is the only rounding, as in `as`. The
+/// MCU's FPU converts 32-bit integers only; `as` is a library call there.
+#[inline(always)]
+fn u64_to_f64(v: u64) -> f64 {
+    f64::from((v >> 32) as u32) * 4_294_967_296.0 + f64::from(v as u32)
 }
 
 /// How far (in `f64` ulps) [`approximate`] may be off, with a wide margin:

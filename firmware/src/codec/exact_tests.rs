@@ -180,3 +180,41 @@ fn m5_parse_f32_reaches_the_exact_path_with_the_right_digits() {
         check(&format!("{first}.{rest}1e{e}"));
     }
 }
+
+/// Eight digits a word at a time give their value, for every digit in
+/// every place (and the rest zeros or nines).
+#[test]
+fn m5_eight_digits_a_word_at_a_time() {
+    for d in b'0'..=b'9' {
+        for at in 0..8 {
+            for fill in [b'0', b'9'] {
+                let mut text = [fill; 8];
+                text[at] = d;
+                let want: u32 = std::str::from_utf8(&text).unwrap().parse().unwrap();
+                assert_eq!(eight(&text), want, "{:?}", std::str::from_utf8(&text));
+            }
+        }
+    }
+    assert_eq!(eight(b"12345678"), 12_345_678);
+    assert_eq!(eight(b"99999999"), 99_999_999);
+}
+
+/// The two-halves conversion rounds as `as` does, at the edges of the
+/// halves and where the sum needs rounding (beyond 2^53).
+#[test]
+fn u64_to_f64_rounds_as_core() {
+    let mut next = crate::codec::xorshift64(3);
+    let edges = [
+        0,
+        1,
+        u64::from(u32::MAX),
+        1 << 32,
+        (1 << 53) + 1,
+        (1 << 54) + 3,
+        u64::MAX,
+        9_999_999_999_999_999_999,
+    ];
+    for v in edges.into_iter().chain((0..100_000).map(|_| next())) {
+        assert_eq!(u64_to_f64(v).to_bits(), (v as f64).to_bits(), "{v}");
+    }
+}

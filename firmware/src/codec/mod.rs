@@ -11,6 +11,7 @@ pub mod decode;
 pub mod encode;
 mod exact;
 pub mod format;
+pub mod hand_over;
 pub mod number;
 pub mod text;
 pub mod writer;
@@ -45,3 +46,4 @@ pub use decode::{
     decode, decode_general, DecodeError, DecodeErrorKind, Decoded, Tally, EXTRA_ITEMS,
 };
 pub use encode::{encode, BufferTooSmall, Encoded};
+pub use hand_over::HandOver;

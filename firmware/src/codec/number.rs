@@ -287,6 +287,53 @@ fn mantissa(t: &[u8]) -> Mantissa<'_> {
     }
 }
 
+/// [`mantissa`] without the value (`value` is 0): the digits counted four
+/// at a time ([`digit_count`]).
+#[inline(always)]
+fn counted(t: &[u8]) -> Mantissa<'_> {
+    let (negative, digits) = sign(t);
+    let whole = digit_count(digits);
+    let rest = digits.get(whole..).unwrap_or(&[]);
+    let (fraction, rest) = match rest {
+        [b'.', after @ ..] => {
+            let n = digit_count(after);
+            (n, after.get(n..).unwrap_or(&[]))
+        }
+        _ => (0, rest),
+    };
+    Mantissa {
+        negative,
+        digits,
+        whole,
+        fraction,
+        value: 0,
+        rest,
+    }
+}
+
+/// How many ASCII digits `s` starts with, four bytes a step: a word whose
+/// every byte has the high nibble 3 and, with 6 added, still has it, is
+/// four of `0`..`9` (6 added to `0x30`..`0x39` carries into no other
+/// byte; a byte that carries fails the first test). Only for long texts:
+/// on a robot's short reals a failed word test costs more than it saves.
+#[inline(always)]
+pub(crate) fn digit_count(s: &[u8]) -> usize {
+    let mut rest = s;
+    while let Some((w, tail)) = rest.split_first_chunk::<4>() {
+        let v = u32::from_le_bytes(*w);
+        let high = v & 0xf0f0_f0f0;
+        let low = (v.wrapping_add(0x0606_0606) & 0xf0f0_f0f0) >> 4;
+        if high | low != 0x3333_3333 {
+            break;
+        }
+        rest = tail;
+    }
+    while let [b'0'..=b'9', tail @ ..] = rest {
+        rest = tail;
+    }
+    s.len() - rest.len()
+}
+
 /// The one decimal scanner: splits trimmed text into a [`Decimal`], or
 /// `None` when it is not `[sign] digits [. digits] [e [sign] digits]` with
 /// at least one mantissa digit (so no `inf`, `nan` or hex, which
@@ -295,7 +342,18 @@ fn mantissa(t: &[u8]) -> Mantissa<'_> {
 // times and everything else come here.
 #[inline(never)]
 fn split_decimal(t: &[u8]) -> Option<Decimal<'_>> {
-    let m = mantissa(t);
+    // A text longer than 19 digits, a sign and a point: its digits are
+    // counted, not added up (a hostile message holds dozens of 48-digit
+    // reals, and `codec::exact` folds their digits once anyway); when it
+    // holds no more than 19 after all (an exponent made it long), they are
+    // read again with their value, which costs at most 19 digits.
+    let m = match t.len() > SAFE_DIGITS + 2 {
+        true => match counted(t) {
+            m if m.whole + m.fraction > SAFE_DIGITS => m,
+            _ => mantissa(t),
+        },
+        false => mantissa(t),
+    };
     let taken = m.whole + m.fraction;
     if taken == 0 {
         return None;
@@ -444,8 +502,8 @@ fn parse_f32_general(text: &[u8]) -> Result<f32, NumberError> {
 
 /// The magnitude of a decimal where no fast path applies, by
 /// `codec::exact`, with a result beyond `f32` refused. Out of line, so the
-/// common path keeps its registers.
-#[cold]
+/// common path keeps its registers; not `#[cold]`, which would have it
+/// built for size: it is the hostile worst case's path.
 #[inline(never)]
 fn exact_magnitude(parts: super::exact::Parts<'_>) -> Result<f32, NumberError> {
     let v = super::exact::parse_parts(parts)?;

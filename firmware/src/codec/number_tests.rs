@@ -189,3 +189,24 @@ fn m5_the_plain_path_agrees_with_the_whole_scanner() {
         assert_eq!(parse_f32(text), parse_f32_general(text));
     }
 }
+
+/// The four-at-a-time digit count agrees with a byte-at-a-time one for
+/// every byte in every place of a word, after digits and before them (a
+/// byte that carries when 6 is added, `0xfa`..`0xff`, among them).
+#[test]
+fn m5_digit_count_four_at_a_time_is_exact() {
+    let bytewise = |s: &[u8]| s.iter().take_while(|b| b.is_ascii_digit()).count();
+    for b in 0..=255u8 {
+        for at in 0..9 {
+            let mut text = *b"123456789";
+            text[at] = b;
+            assert_eq!(digit_count(&text), bytewise(&text), "{b:#x} at {at}");
+            assert_eq!(digit_count(&text[..at + 1]), bytewise(&text[..at + 1]));
+        }
+    }
+    assert_eq!(digit_count(b""), 0);
+    assert_eq!(
+        digit_count(b"0123456789012345678901234567890123456789.5"),
+        40
+    );
+}

@@ -146,8 +146,10 @@ fn hostile(manual: &str, keep: Option<&str>) -> ExitCode {
         true,
     )];
     // Beside the corpus qemu-bench gates: a message handed over late (issue
-    // 36, finding 2, not fixed): every real a halfway case, the last byte
-    // wrong, so both paths parse every number. Printed here, not gated.
+    // 36, finding 2): every real a halfway case, the last byte wrong. Each
+    // number is parsed once (the general path takes the compiled path's,
+    // `codec::HandOver`), but both paths scan the whole datagram. Printed
+    // here, not gated: on the MCU it is still over the hostile budget.
     let late = inputs
         .iter()
         .find(|i| i.name == "every real a halfway case")
@@ -156,7 +158,7 @@ fn hostile(manual: &str, keep: Option<&str>) -> ExitCode {
             if let Some(last) = bytes.last_mut() {
                 *last = b'x';
             }
-            ("handed over late (not fixed)".to_string(), bytes, false)
+            ("handed over late".to_string(), bytes, false)
         });
     let all = inputs
         .iter()

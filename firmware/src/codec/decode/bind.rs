@@ -4,6 +4,7 @@
 //! typed error on bad input.
 
 use super::error::{bump, err, DecodeError, DecodeErrorKind, Tally};
+use crate::codec::hand_over::HandOver;
 use crate::codec::number::{is_xml_space_char, parse_f32, parse_time, trim, NumberError};
 use crate::codec::text::append_decoded;
 use crate::schema::FieldMut;
@@ -133,17 +134,24 @@ pub(super) fn set_component(
     value: &str,
     at: usize,
     tally: &mut Tally,
+    hand_over: &mut HandOver,
 ) -> Result<bool, DecodeError> {
+    // A real the compiled path read before it handed over is taken as it
+    // read it (the same bytes: the same value), not parsed again.
+    let mut read_real = || match hand_over.take(value.as_bytes()) {
+        Some(v) => Ok(v),
+        None => real(value, at),
+    };
     match field {
         FieldMut::Frame(f) => match frame_slot(f, name) {
-            Some(slot) => *slot = real(value, at)?,
+            Some(slot) => *slot = read_real()?,
             None => return Ok(false),
         },
         FieldMut::Joints(j) => match joint_component(name).and_then(|i| j.get_mut(i)) {
-            Some(slot) => *slot = real(value, at)?,
+            Some(slot) => *slot = read_real()?,
             None => return Ok(false),
         },
-        FieldMut::Reals(a) => return set_element(a, name, || real(value, at)),
+        FieldMut::Reals(a) => return set_element(a, name, read_real),
         FieldMut::Bools(a) => return set_element(a, name, || boolean(value, at)),
         FieldMut::Times(a) => return set_element(a, name, || time(value, at)),
         FieldMut::Strs(a) => {

@@ -32,6 +32,7 @@ mod events;
 pub use bind::parse_bool;
 pub use error::{DecodeError, DecodeErrorKind, Decoded, Tally, EXTRA_ITEMS};
 
+use super::hand_over::HandOver;
 use super::number::blank;
 use crate::schema::{Body, MessageCodec, MAX_FIELDS};
 use bind::{collect, components, finish_slot, set_component, Collected, Target};
@@ -73,18 +74,20 @@ fn all_ascii(bytes: &[u8]) -> bool {
 /// fields absent from the message keep their values).
 ///
 /// The message as controllers write it takes the path the build compiled
-/// from the layout ([`MessageCodec::decode_compiled`], see
+/// from the layout ([`MessageCodec::decode_compiled_into`], see
 /// [`super::compiled`]); whatever that path does not expect goes to
 /// [`decode_general`], which gives the same answer for what both take and
-/// keeps every rule for the rest.
+/// keeps every rule for the rest. The reals the compiled path already
+/// read the slow way are handed over ([`HandOver`]), not parsed again.
 #[inline]
 pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decoded, DecodeError> {
     if bytes.len() > M::MAX_RECEIVE_LEN {
         return Err(err(DecodeErrorKind::TooLong, M::MAX_RECEIVE_LEN));
     }
-    match M::decode_compiled(bytes, data) {
+    let mut hand_over = HandOver::new(bytes);
+    match M::decode_compiled_into(bytes, data, &mut hand_over) {
         Some(decoded) => Ok(decoded),
-        None => decode_general::<M>(bytes, data),
+        None => general::<M>(bytes, data, &mut hand_over),
     }
 }
 
@@ -94,17 +97,26 @@ pub fn decode<M: MessageCodec>(bytes: &[u8], data: &mut M::Data) -> Result<Decod
 ///
 /// Two layers: `events::walk` checks the message's structure and tells
 /// the `Binder` each event; the binder maps them to the generated record.
-#[inline(never)]
 pub fn decode_general<M: MessageCodec>(
     bytes: &[u8],
     data: &mut M::Data,
+) -> Result<Decoded, DecodeError> {
+    general::<M>(bytes, data, &mut HandOver::new(bytes))
+}
+
+/// [`decode_general`] taking the reals in `hand_over` as read.
+#[inline(never)]
+fn general<M: MessageCodec>(
+    bytes: &[u8],
+    data: &mut M::Data,
+    hand_over: &mut HandOver,
 ) -> Result<Decoded, DecodeError> {
     use DecodeErrorKind as K;
     if bytes.len() > M::MAX_RECEIVE_LEN {
         return Err(err(K::TooLong, M::MAX_RECEIVE_LEN));
     }
     let text = utf8(bytes).map_err(|e| err(K::NotUtf8, e.valid_up_to()))?;
-    let mut binder = Binder::<M>::new(data);
+    let mut binder = Binder::<M>::new(data, hand_over);
     let Header { id, ts } = events::walk(text, M::WIRE_NAME, &mut binder)?;
     Ok(Decoded {
         id,
@@ -117,6 +129,8 @@ pub fn decode_general<M: MessageCodec>(
 /// which fields were seen, and what the layout does not know (counted).
 struct Binder<'a, 'd, M: MessageCodec> {
     data: &'d mut M::Data,
+    /// The reals the compiled path read before it handed over.
+    hand_over: &'d mut HandOver,
     /// Where text and attributes go now.
     target: Target,
     /// One bit per field seen (duplicates are errors, M2).
@@ -136,13 +150,14 @@ impl<'a, 'd, M: MessageCodec> Binder<'a, 'd, M> {
     const VALUE_BODY: bool = matches!(M::BODY, Body::Value);
 
     #[inline(always)]
-    fn new(data: &'d mut M::Data) -> Self {
+    fn new(data: &'d mut M::Data, hand_over: &'d mut HandOver) -> Self {
         let components = match Self::root_target() {
             Target::Slot(i) => M::field_mut(data, i).as_ref().and_then(components),
             Target::None => None,
         };
         Binder {
             data,
+            hand_over,
             components,
             target: Self::root_target(),
             seen: 0,
@@ -231,7 +246,14 @@ impl<'a, M: MessageCodec> Visitor<'a> for Binder<'a, '_, M> {
                     // parsed again. Counted once: an unknown attribute is
                     // one extra below, wherever it stands.
                     let full = self.components.is_some_and(|n| self.c.assigned >= n);
-                    let known = set_component(field, name.as_bytes(), value, at, &mut self.tally)?;
+                    let known = set_component(
+                        field,
+                        name.as_bytes(),
+                        value,
+                        at,
+                        &mut self.tally,
+                        self.hand_over,
+                    )?;
                     if known && full {
                         self.extras.add(at)?;
                     } else if known {
@@ -392,6 +414,21 @@ mod tests {
         let mut data = Data::default();
         let r = decode::<T>(text.as_bytes(), &mut data);
         (data, r)
+    }
+
+    /// The general path takes a real the compiled path kept for exactly
+    /// its bytes (a planted value shows it was taken, not parsed), and
+    /// parses every other one.
+    #[test]
+    fn m5_a_real_handed_over_is_taken_not_parsed_again() {
+        let text = r#"<T Id="3"><P X="1e0" Y="2e0"/></T>"#;
+        let bytes = text.as_bytes();
+        let x = text.find("1e0").unwrap();
+        let mut hand_over = HandOver::new(bytes);
+        hand_over.keep(&bytes[x..x + 3], 42.0);
+        let mut data = Data::default();
+        general::<T>(bytes, &mut data, &mut hand_over).unwrap();
+        assert_eq!((data.p.x, data.p.y), (42.0, 2.0));
     }
 
     #[test]
