@@ -79,8 +79,21 @@ pub fn fragment(
     offset: usize,
     payload: &[u8],
 ) -> Vec<u8> {
+    fragment_at(from, to, ident, offset, true, payload)
+}
+
+/// [`fragment`] with "more fragments" as `more` says (clear: the last of
+/// its set).
+fn fragment_at(
+    from: Ipv4Addr,
+    to: Ipv4Addr,
+    ident: u16,
+    offset: usize,
+    more: bool,
+    payload: &[u8],
+) -> Vec<u8> {
     let total = 20 + payload.len();
-    let flags = 0x2000 | (offset / 8) as u16;
+    let flags = if more { 0x2000 } else { 0 } | (offset / 8) as u16;
     let mut p = vec![0x45, 0];
     p.extend_from_slice(&(total as u16).to_be_bytes());
     p.extend_from_slice(&ident.to_be_bytes());
@@ -192,6 +205,101 @@ pub fn fragment_flood(
     }))
 }
 
+/// The first IP ident of the robot's crafted datagrams ([`last_first`]);
+/// the tail flood ([`tail_flood`]) numbers from [`TAIL_IDENTS`]. Two
+/// halves, so that no tail ever joins one of the robot's sets by its ident
+/// (the set would be spoiled for a reason the test does not stand for).
+const ROBOT_IDENTS: u16 = 0x0001;
+const TAIL_IDENTS: u16 = 0x8000;
+
+/// A UDP datagram from `from` to `to` (checksum filled) as IPv4
+/// fragments of [`FRAGMENT`] bytes, **the last one first**, then the
+/// others from the first on: how a controller's message looks after a
+/// path that reorders (issue 36, finding 4). One packet when it fits one.
+pub fn last_first(
+    from: SocketAddrV4,
+    to: SocketAddrV4,
+    ident: u16,
+    payload: &[u8],
+) -> Vec<Vec<u8>> {
+    let mut udp = Vec::with_capacity(8 + payload.len());
+    udp.extend_from_slice(&from.port().to_be_bytes());
+    udp.extend_from_slice(&to.port().to_be_bytes());
+    udp.extend_from_slice(&((8 + payload.len()) as u16).to_be_bytes());
+    udp.extend_from_slice(&[0, 0]);
+    udp.extend_from_slice(payload);
+    smoltcp::wire::UdpPacket::new_unchecked(&mut udp[..]).fill_checksum(
+        &smoltcp::wire::IpAddress::Ipv4(*from.ip()),
+        &smoltcp::wire::IpAddress::Ipv4(*to.ip()),
+    );
+    let mut pieces: Vec<Vec<u8>> = udp
+        .chunks(FRAGMENT)
+        .enumerate()
+        .map(|(i, piece)| {
+            let offset = i * FRAGMENT;
+            let more = offset + piece.len() < udp.len();
+            fragment_at(*from.ip(), *to.ip(), ident, offset, more, piece)
+        })
+        .collect();
+    if let Some(last) = pieces.pop() {
+        pieces.insert(0, last);
+    }
+    pieces
+}
+
+/// A send for the robot simulator (`RobotOptions::udp_send`): each robot
+/// message from `controller` (at the simulator's own port, so its replies
+/// still reach the simulator's socket) crafted as [`last_first`]
+/// fragments through a raw socket, each message a fresh ident.
+pub fn last_first_sender(controller: Ipv4Addr) -> Result<rri_robot::UdpSend, String> {
+    let raw = RawIpv4::new()?;
+    let next = std::sync::atomic::AtomicU16::new(ROBOT_IDENTS);
+    Ok(rri_robot::UdpSend(Arc::new(move |from, to, bytes| {
+        let std::net::SocketAddr::V4(to) = to else {
+            return Err(std::io::Error::other("IPv4 only"));
+        };
+        let ident = next.fetch_add(1, Ordering::Relaxed) % TAIL_IDENTS;
+        let from = SocketAddrV4::new(controller, from.port());
+        for piece in last_first(from, to, ident.max(ROBOT_IDENTS), bytes) {
+            raw.send(&piece, *to.ip())?;
+        }
+        Ok(())
+    })))
+}
+
+/// The sustained form of issue 36's finding 4: from `from` (the
+/// controller's address), a tail fragment (the last of a set, at byte
+/// [`FRAGMENT`]) with a fresh ident every `period` (7 ms in CI), until
+/// `stop`. Before the guard evicted least-recently-used within a rank,
+/// these kept a robot message that arrived last-fragment-first out:
+/// no buffer for its tail.
+pub fn tail_flood(
+    from: Ipv4Addr,
+    to: SocketAddrV4,
+    period: Duration,
+    stop: Arc<AtomicBool>,
+) -> Result<JoinHandle<Flooded>, String> {
+    let raw = RawIpv4::new()?;
+    Ok(std::thread::spawn(move || {
+        let mut sent = 0u64;
+        let tail = vec![b' '; 200];
+        let mut pacer = Pacer::new(period);
+        for n in 0u16.. {
+            if stop.load(Ordering::Relaxed) {
+                break;
+            }
+            let ident = TAIL_IDENTS | (n & 0x7fff);
+            let piece = fragment_at(from, *to.ip(), ident, FRAGMENT, false, &tail);
+            sent += u64::from(raw.send(&piece, *to.ip()).is_ok());
+            pacer.wait();
+        }
+        Flooded {
+            sent: vec![("tail fragment, a fresh ident".to_string(), sent)],
+            replies: 0,
+        }
+    }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -209,5 +317,37 @@ mod tests {
         let m = fragment(*from.ip(), *to.ip(), 1, 60_000, &[0; 8]);
         assert_eq!(u16::from_be_bytes([m[6], m[7]]), 0x2000 | 7500);
         assert!(right(&m[..20]));
+    }
+
+    /// The robot's crafted datagram: the last fragment first, every
+    /// header right, and the pieces put back in offset order are the UDP
+    /// datagram with a right checksum.
+    #[test]
+    fn last_first_puts_the_last_fragment_first_and_holds_the_datagram() {
+        let from = SocketAddrV4::new(Ipv4Addr::new(10, 49, 65, 1), 40000);
+        let to = SocketAddrV4::new(Ipv4Addr::new(10, 49, 65, 74), 3002);
+        let payload: Vec<u8> = (0..3500u32).map(|i| b'a' + (i % 26) as u8).collect();
+        let pieces = last_first(from, to, 7, &payload);
+        assert_eq!(pieces.len(), 3);
+        let flags = |p: &[u8]| u16::from_be_bytes([p[6], p[7]]);
+        assert_eq!(
+            flags(&pieces[0]),
+            (2 * FRAGMENT / 8) as u16,
+            "last: offset, no MF"
+        );
+        assert_eq!(flags(&pieces[1]), 0x2000, "first: MF, offset 0");
+        assert_eq!(flags(&pieces[2]), 0x2000 | (FRAGMENT / 8) as u16);
+        let right = |h: &[u8]| smoltcp::wire::Ipv4Packet::new_unchecked(h).verify_checksum();
+        assert!(pieces.iter().all(|p| right(&p[..20]) && p[4..6] == [0, 7]));
+        let mut udp: Vec<u8> = Vec::new();
+        for p in [&pieces[1], &pieces[2], &pieces[0]] {
+            udp.extend_from_slice(&p[20..]);
+        }
+        let packet = smoltcp::wire::UdpPacket::new_checked(&udp[..]).unwrap();
+        assert!(packet.verify_checksum(
+            &smoltcp::wire::IpAddress::Ipv4(*from.ip()),
+            &smoltcp::wire::IpAddress::Ipv4(*to.ip())
+        ));
+        assert_eq!(packet.payload(), &payload[..]);
     }
 }

@@ -27,7 +27,7 @@ mod sim;
 mod stream;
 pub mod wire;
 
-pub use options::RobotOptions;
+pub use options::{RobotOptions, UdpSend};
 
 use fault::{Fault, Faults};
 use gsi_config::{Device, Property};

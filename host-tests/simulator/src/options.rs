@@ -55,6 +55,25 @@ pub struct RobotOptions {
     /// `--replay FILE`: replay a capture's robot messages instead of
     /// making them ([`crate::replay`]).
     pub replay: Option<crate::replay::ReplayOptions>,
+    /// Sends each UDP robot message instead of the socket (from the
+    /// socket's own address, so replies still come back to it): how a
+    /// test puts the controller's datagrams on the wire its own way
+    /// (`cargo flood -- --fragments --tail-attack` crafts them as IP
+    /// fragments, the last one first). `None`: the socket sends.
+    pub udp_send: Option<UdpSend>,
+}
+
+/// What a [`UdpSend`] calls: `(from, to, datagram)`.
+pub type SendFn = dyn Fn(SocketAddr, SocketAddr, &[u8]) -> std::io::Result<()> + Send + Sync;
+
+/// A replacement for the UDP socket's send.
+#[derive(Clone)]
+pub struct UdpSend(pub Arc<SendFn>);
+
+impl std::fmt::Debug for UdpSend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("UdpSend(..)")
+    }
 }
 
 impl RobotOptions {
@@ -86,6 +105,7 @@ impl RobotOptions {
             device_log: None,
             device_status: None,
             replay: None,
+            udp_send: None,
         }
     }
 }

@@ -289,10 +289,12 @@ impl Sim<'_> {
                 (true, Some(s)) => s,
                 _ => main,
             };
-            (
-                sock.local_addr().ok(),
-                sock.send_to(bytes, self.opts.to).map(|_| ()),
-            )
+            let from = sock.local_addr().ok();
+            let sent = match (&self.opts.udp_send, from) {
+                (Some(send), Some(from)) => (send.0)(from, self.opts.to, bytes),
+                _ => sock.send_to(bytes, self.opts.to).map(|_| ()),
+            };
+            (from, sent)
         } else if let Some(stream) = &mut self.link.tcp {
             if self.link.closed {
                 return Ok(());

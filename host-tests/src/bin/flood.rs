@@ -73,6 +73,13 @@ struct Args {
     /// with a configuration whose robot messages are fragmented).
     #[arg(long)]
     fragments: bool,
+    /// With `--fragments`: the sustained attack of issue 36's finding 4
+    /// instead: every robot message arrives as IP fragments, the last one
+    /// first (crafted through a raw socket), while the controller's
+    /// address sends a tail fragment with a fresh ident every 7 ms. Fails
+    /// unless every robot message the firmware got is answered.
+    #[arg(long, requires = "fragments")]
+    tail_attack: bool,
     /// Robot cycles sent before the counted run, with no flood, so that
     /// QEMU has translated the firmware's code (as `cargo demo`'s warm-up;
     /// their figures are printed, their losses not counted; 0: none).
@@ -207,16 +214,23 @@ fn inside(args: &Args) -> Result<u8, String> {
     foreign.extend(qb::flood_datagrams());
     let period = Duration::from_micros(args.flood_us * 2);
     let stop = Arc::new(AtomicBool::new(false));
-    println!(
-        "== robot simulator: {} cycles every 4 ms to {to}; once it is the peer, {} every {} µs from {stranger} (foreign) and from {controller} on a second port",
-        args.cycles,
-        if args.fragments {
-            format!("fragment attacks ({})", attack::KINDS.join(", "))
-        } else {
-            "a flood".to_string()
-        },
-        args.flood_us
-    );
+    if args.tail_attack {
+        println!(
+            "== robot simulator: {} cycles every 4 ms to {to}, each message last fragment first; once it is the peer, a tail fragment with a fresh ident every 7 ms from {controller} (the stranger {stranger} idles)",
+            args.cycles
+        );
+    } else {
+        println!(
+            "== robot simulator: {} cycles every 4 ms to {to}; once it is the peer, {} every {} µs from {stranger} (foreign) and from {controller} on a second port",
+            args.cycles,
+            if args.fragments {
+                format!("fragment attacks ({})", attack::KINDS.join(", "))
+            } else {
+                "a flood".to_string()
+            },
+            args.flood_us
+        );
+    }
     let (gsi, name) = host_tests::built_gsi();
     let mut opts = RobotOptions::new(gsi, to);
     opts.device = name;
@@ -237,7 +251,10 @@ fn inside(args: &Args) -> Result<u8, String> {
         let sent = u32::try_from(ws.sent).map_err(|_| "warm-up: too many messages")?;
         opts.first_id = w.first_id.wrapping_add(sent);
     }
-    if args.fragments {
+    if args.tail_attack {
+        opts.udp_send = Some(attack::last_first_sender(controller)?);
+        println!("  every robot message from here on: IP fragments, the last one first");
+    } else if args.fragments {
         // The issue's attack, before the robot's (counted) messages: two
         // 9,000-byte datagrams from a second port of the controller's
         // address (with smoltcp's own reassembly, every fragmented robot
@@ -257,7 +274,17 @@ fn inside(args: &Args) -> Result<u8, String> {
     // that spoke first would be the controller. The flood starts once the
     // robot is.
     board.wait_for("state OPERATING", Duration::from_secs(10))?;
-    let (strangers, second_port) = if args.fragments {
+    let (strangers, second_port) = if args.tail_attack {
+        let to = SocketAddrV4::new(Ipv4Addr::new(a, b, c, d), device.channel.port);
+        // The stranger idles: the attack is the controller's address's own.
+        (
+            std::thread::spawn(|| qb::Flooded {
+                sent: Vec::new(),
+                replies: 0,
+            }),
+            attack::tail_flood(controller, to, Duration::from_millis(7), stop.clone())?,
+        )
+    } else if args.fragments {
         let to = SocketAddrV4::new(Ipv4Addr::new(a, b, c, d), device.channel.port);
         let len = rri_firmware::layout::MAX_RECEIVE_LEN;
         // The two flooders half a turn apart: never both multi-frame kinds
