@@ -169,6 +169,32 @@ pub fn free_port() -> Result<u16, String> {
     Err("no port free for both UDP and TCP on 127.0.0.1".into())
 }
 
+/// Boots `elf` as `device` on QEMU's user networking, the channel port and
+/// the status page forwarded from free ports on 127.0.0.1, and says so:
+/// the board, where the robot reaches it and where its status page is
+/// (`cargo demo` and `cargo hil -- --board qemu`).
+pub fn boot_local(
+    elf: PathBuf,
+    device: &Device,
+) -> Result<(Qemu, std::net::SocketAddr, Option<std::net::SocketAddr>), String> {
+    let host_port = free_port()?;
+    let boot = Boot {
+        elf,
+        device: device.clone(),
+        host_port,
+        icount_shift: None,
+        http_port: Some(free_tcp_port()?),
+    };
+    println!(
+        "== booting {} on {MACHINE} (device {} port {} forwarded from 127.0.0.1:{host_port})",
+        boot.elf.display(),
+        device.network.address,
+        device.channel.port
+    );
+    let http = boot.http_port.map(|p| ([127, 0, 0, 1], p).into());
+    Ok((Qemu::boot(&boot)?, ([127, 0, 0, 1], host_port).into(), http))
+}
+
 /// How to boot.
 #[derive(Clone, Debug)]
 pub struct Boot {

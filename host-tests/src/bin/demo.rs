@@ -12,7 +12,7 @@
 
 use clap::Parser;
 use host_tests::demo::{self, Failure, RunArgs, Setup};
-use host_tests::qemu::{self, Boot, Qemu};
+use host_tests::qemu;
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
@@ -48,28 +48,13 @@ fn run_demo(args: &RunArgs) -> Result<(), Failure> {
     );
     let name = if args.tcp { "demo-tcp" } else { "demo" };
     let elf = qemu::build_firmware(&[], setup.build_gsi.as_deref(), name)?;
-    let host_port = qemu::free_port()?;
-    let boot = Boot {
-        elf,
-        device: setup.device.clone(),
-        host_port,
-        icount_shift: None,
-        http_port: Some(qemu::free_tcp_port()?),
-    };
-    println!(
-        "== booting {} on {} (device {} port {} forwarded from 127.0.0.1:{host_port})",
-        boot.elf.display(),
-        qemu::MACHINE,
-        setup.device.network.address,
-        setup.device.channel.port
-    );
-    let board = Qemu::boot(&boot)?;
+    let (board, to, http) = qemu::boot_local(elf, &setup.device)?;
     let ran = demo::drive(
         Box::new(board),
         &setup,
         args,
-        ([127, 0, 0, 1], host_port).into(),
-        boot.http_port.map(|p| ([127, 0, 0, 1], p).into()),
+        to,
+        http,
         &demo::qemu_ready(&setup),
         &mut out,
     )?;

@@ -31,7 +31,7 @@ use clap::{CommandFactory, FromArgMatches, Parser};
 use host_tests::demo::{self, Device, Failure, RunArgs, Setup};
 use host_tests::hil::{self, DeviceFigures, HilBoard};
 use host_tests::probe::{self, ProbeRun};
-use host_tests::qemu::{self, Boot, Qemu};
+use host_tests::qemu;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -251,27 +251,8 @@ fn start(board: &HilBoard, args: &Args, setup: &Setup, elf: PathBuf) -> Result<S
             Ok((Box::new(ProbeRun::start(cmd)?), to, Some(http)))
         }
         None => {
-            let host_port = qemu::free_port()?;
-            let boot = Boot {
-                elf,
-                device: setup.device.clone(),
-                host_port,
-                icount_shift: None,
-                http_port: Some(qemu::free_tcp_port()?),
-            };
-            println!(
-                "== booting {} on {} (device {} port {} forwarded from 127.0.0.1:{host_port})",
-                boot.elf.display(),
-                qemu::MACHINE,
-                setup.device.network.address,
-                setup.device.channel.port
-            );
-            let http = boot.http_port.map(|p| ([127, 0, 0, 1], p).into());
-            Ok((
-                Box::new(Qemu::boot(&boot)?),
-                ([127, 0, 0, 1], host_port).into(),
-                http,
-            ))
+            let (board, to, http) = qemu::boot_local(elf, &setup.device)?;
+            Ok((Box::new(board), to, http))
         }
     }
 }
