@@ -213,7 +213,7 @@ const ROBOT_IDENTS: u16 = 0x0001;
 const TAIL_IDENTS: u16 = 0x8000;
 
 /// A UDP datagram from `from` to `to` (checksum filled) as IPv4
-/// fragments of [`FRAGMENT`] bytes, **the last one first**, then the
+/// fragments of 1,480 bytes (`FRAGMENT`), **the last one first**, then the
 /// others from the first on: how a controller's message looks after a
 /// path that reorders (issue 36, finding 4). One packet when it fits one.
 pub fn last_first(
@@ -269,7 +269,7 @@ pub fn last_first_sender(controller: Ipv4Addr) -> Result<rri_robot::UdpSend, Str
 
 /// The sustained form of issue 36's finding 4: from `from` (the
 /// controller's address), a tail fragment (the last of a set, at byte
-/// [`FRAGMENT`]) with a fresh ident every `period` (7 ms in CI), until
+/// `FRAGMENT`) with a fresh ident every `period` (7 ms in CI), until
 /// `stop`. Before the guard evicted least-recently-used within a rank,
 /// these kept a robot message that arrived last-fragment-first out:
 /// no buffer for its tail.

@@ -62,18 +62,11 @@ impl Failure {
     }
 }
 
-/// Whether a log line is shown as it comes: everything but the bench
-/// build's record per message (`bench bytes=…`), which the tools read from
-/// the whole log and `cargo hil` summarises.
-pub fn shown_live(line: &str) -> bool {
-    !line.contains("] bench ")
-}
-
 /// A running firmware and its log, as the run needs it.
 pub trait Device {
     /// Waits until a logged line contains `needle`.
     fn wait_for(&mut self, needle: &str, timeout: Duration) -> Result<(), String>;
-    /// Lines logged since the last call ([`shown_live`] ones).
+    /// Lines logged since the last call ([`crate::qemu::shown_live`] ones).
     fn take_new(&self) -> Vec<String>;
     /// Where new lines arrive, for the simulator to show them live.
     fn live_lines(&self) -> Arc<Mutex<Vec<String>>>;

@@ -136,7 +136,7 @@ impl ProbeRun {
         let (n, a) = (new_lines.clone(), all.clone());
         let reader = std::thread::spawn(move || {
             for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if crate::demo::shown_live(&line) {
+                if crate::qemu::shown_live(&line) {
                     if let Ok(mut v) = n.lock() {
                         v.push(line.clone());
                     }

@@ -16,8 +16,9 @@ use std::time::{Duration, Instant};
 /// QEMU's system emulator for Arm and the machine we boot.
 pub const QEMU: &str = "qemu-system-arm";
 pub const MACHINE: &str = "mps2-an500";
-/// The firmware's target and the features that pick the QEMU board.
-pub const TARGET: &str = "thumbv7em-none-eabihf";
+/// The firmware's target (`mcu_target`'s, which installs it).
+pub use crate::mcu_target::TARGET;
+/// The features that pick the QEMU board.
 pub const BOARD_FEATURES: &str = "board,hal-board/mps2-an500";
 /// The cargo profile of every firmware build (the root Cargo.toml says why
 /// it is not `release`): the figures measured here are what boards run.
@@ -155,6 +156,14 @@ pub fn free_tcp_port() -> Result<u16, String> {
         .map_err(|e| e.to_string())
 }
 
+/// Whether a log line of the firmware (QEMU's or a probe's) is shown as it
+/// comes: everything but the bench build's record per message (`bench
+/// bytes=…`), which the tools read from the whole log and `cargo hil`
+/// summarises.
+pub fn shown_live(line: &str) -> bool {
+    !line.contains("] bench ")
+}
+
 /// A free port on 127.0.0.1 for QEMU to forward (released just before
 /// QEMU binds it).
 pub fn free_port() -> Result<u16, String> {
@@ -249,7 +258,7 @@ pub struct Qemu {
     child: Child,
     /// Lines not yet taken by [`Qemu::take_new`] (shared with the robot
     /// simulator's `device_log`), without the bench records
-    /// ([`crate::demo::shown_live`]).
+    /// ([`shown_live`]).
     pub new_lines: Arc<Mutex<Vec<String>>>,
     all: Arc<Mutex<Vec<String>>>,
     reader: Option<JoinHandle<()>>,
@@ -402,7 +411,7 @@ impl Drop for Qemu {
 /// Decodes the defmt stream into `[time LEVEL] message` lines.
 fn decode(elf: Vec<u8>, mut stdout: impl Read, new: &Mutex<Vec<String>>, all: &Mutex<Vec<String>>) {
     let push = |line: String| {
-        if crate::demo::shown_live(&line) {
+        if shown_live(&line) {
             if let Ok(mut n) = new.lock() {
                 n.push(line.clone());
             }

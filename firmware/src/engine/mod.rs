@@ -22,7 +22,7 @@ pub use config::{Config, Periodic};
 pub use ids::{ChannelIds, IdEvent, IdTracker};
 pub use peer::{Admit, Endpoint, PeerChange, PeerFilter, Pinned};
 pub use state::{ErrorCode, SensorState};
-pub use stats::{DropReason, Histogram, Stats};
+pub use stats::{DropReason, FragmentStats, Histogram, Stats};
 pub use time::{Clock, Instant, RobotClock};
 
 use crate::properties::{DeviceSet, RobotSet, MAX_PROPERTIES};
@@ -261,7 +261,7 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
 
     /// The fragment guard's counters as of now (S5): the cycle copies
     /// them in after every turn, so [`Engine::stats`] has every counter.
-    pub fn set_fragment_stats(&mut self, fragments: crate::fragments::FragmentStats) {
+    pub fn set_fragment_stats(&mut self, fragments: FragmentStats) {
         self.stats.fragments = fragments;
     }
 

@@ -2,7 +2,6 @@
 //! latency histogram, readable as one `Copy` snapshot.
 
 use crate::codec::DecodeErrorKind;
-use crate::fragments::FragmentStats;
 
 /// Receive → reply-ready time in device clock ticks (µs), in power-of-two
 /// buckets: bucket `i` counts latencies below `2^i` µs (and at least
@@ -295,6 +294,86 @@ impl Stats {
     /// Decode errors of one kind.
     pub fn decode_errors_of(&self, kind: DecodeErrorKind) -> u32 {
         self.decode_errors.get(kind.index()).copied().unwrap_or(0)
+    }
+}
+
+/// The fragment counters (S5), saturating. Fragments dropped on arrival
+/// are counted per [`crate::fragments::FragmentDrop`], sets given up per
+/// [`crate::fragments::SetLoss`]; the fragment guard (`crate::fragments`)
+/// counts them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FragmentStats {
+    /// IPv4 fragments that arrived (any protocol, any sender).
+    pub fragments: u32,
+    /// Datagrams put together and handed to the stack.
+    pub reassembled: u32,
+    /// Fragments dropped: [`crate::fragments::FragmentDrop::Oversize`].
+    pub oversize: u32,
+    /// Fragments dropped: [`crate::fragments::FragmentDrop::Unwanted`].
+    pub unwanted: u32,
+    /// Fragments dropped: [`crate::fragments::FragmentDrop::Malformed`].
+    pub malformed: u32,
+    /// Fragments dropped: [`crate::fragments::FragmentDrop::NoBuffer`].
+    pub no_buffer: u32,
+    /// Fragments dropped: [`crate::fragments::FragmentDrop::Duplicate`].
+    pub duplicate: u32,
+    /// Sets given up: [`crate::fragments::SetLoss::TimedOut`].
+    pub timed_out: u32,
+    /// Sets given up: [`crate::fragments::SetLoss::Evicted`] and [`crate::fragments::SetLoss::Superseded`].
+    pub evicted: u32,
+    /// Sets given up: [`crate::fragments::SetLoss::Spoiled`].
+    pub spoiled: u32,
+    /// The controller's sets ([`crate::fragments::Rank::Controller`]) given up incomplete,
+    /// timed out or superseded: a fragment of a robot message never
+    /// reached the device (in time).
+    pub controller_incomplete: u32,
+    /// The controller's robot messages lost in reassembly itself: a set
+    /// spoiled by a malformed or overlapping fragment or a wrong UDP
+    /// checksum once whole, or refused a buffer (never evicted: nothing
+    /// ranks above them; a set shown oversize or for another port was no
+    /// robot message and is not counted here).
+    pub controller_dropped: u32,
+    /// The controller's datagrams to the channel port handed to the stack
+    /// whole and valid, in one frame (its IPv4 header checksum and length
+    /// right; its UDP checksum is the NIC's or the stack's to check) or
+    /// reassembled (its UDP checksum checked here): the robot messages
+    /// that reached the device (the floods' losses are split with it).
+    pub controller_datagrams: u32,
+}
+
+impl FragmentStats {
+    /// Every counter at zero (for statics).
+    pub const ZERO: FragmentStats = FragmentStats {
+        fragments: 0,
+        reassembled: 0,
+        oversize: 0,
+        unwanted: 0,
+        malformed: 0,
+        no_buffer: 0,
+        duplicate: 0,
+        timed_out: 0,
+        evicted: 0,
+        spoiled: 0,
+        controller_incomplete: 0,
+        controller_dropped: 0,
+        controller_datagrams: 0,
+    };
+
+    /// Fragments dropped on arrival, all reasons.
+    pub fn dropped(&self) -> u32 {
+        self.oversize
+            .saturating_add(self.unwanted)
+            .saturating_add(self.malformed)
+            .saturating_add(self.no_buffer)
+            .saturating_add(self.duplicate)
+    }
+
+    /// Sets given up after holding a buffer, all reasons.
+    pub fn sets_lost(&self) -> u32 {
+        self.timed_out
+            .saturating_add(self.evicted)
+            .saturating_add(self.spoiled)
     }
 }
 

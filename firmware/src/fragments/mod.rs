@@ -50,6 +50,7 @@ pub use reassembly::{Reassembler, Verdict};
 #[cfg(feature = "net")]
 pub mod guard;
 
+pub use crate::engine::FragmentStats;
 use crate::engine::{Endpoint, Pinned};
 
 /// An incomplete set is given up this long after its first fragment
@@ -199,83 +200,9 @@ pub enum SetLoss {
     Spoiled,
 }
 
-/// The fragment counters (S5), saturating. Fragments dropped on arrival
-/// are counted per [`FragmentDrop`], sets given up per [`SetLoss`].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct FragmentStats {
-    /// IPv4 fragments that arrived (any protocol, any sender).
-    pub fragments: u32,
-    /// Datagrams put together and handed to the stack.
-    pub reassembled: u32,
-    /// Fragments dropped: [`FragmentDrop::Oversize`].
-    pub oversize: u32,
-    /// Fragments dropped: [`FragmentDrop::Unwanted`].
-    pub unwanted: u32,
-    /// Fragments dropped: [`FragmentDrop::Malformed`].
-    pub malformed: u32,
-    /// Fragments dropped: [`FragmentDrop::NoBuffer`].
-    pub no_buffer: u32,
-    /// Fragments dropped: [`FragmentDrop::Duplicate`].
-    pub duplicate: u32,
-    /// Sets given up: [`SetLoss::TimedOut`].
-    pub timed_out: u32,
-    /// Sets given up: [`SetLoss::Evicted`] and [`SetLoss::Superseded`].
-    pub evicted: u32,
-    /// Sets given up: [`SetLoss::Spoiled`].
-    pub spoiled: u32,
-    /// The controller's sets ([`Rank::Controller`]) given up incomplete,
-    /// timed out or superseded: a fragment of a robot message never
-    /// reached the device (in time).
-    pub controller_incomplete: u32,
-    /// The controller's robot messages lost in reassembly itself: a set
-    /// spoiled by a malformed or overlapping fragment or a wrong UDP
-    /// checksum once whole, or refused a buffer (never evicted: nothing
-    /// ranks above them; a set shown oversize or for another port was no
-    /// robot message and is not counted here).
-    pub controller_dropped: u32,
-    /// The controller's datagrams to the channel port handed to the stack
-    /// whole and valid, in one frame (its IPv4 header checksum and length
-    /// right; its UDP checksum is the NIC's or the stack's to check) or
-    /// reassembled (its UDP checksum checked here): the robot messages
-    /// that reached the device (the floods' losses are split with it).
-    pub controller_datagrams: u32,
-}
-
+// The counters themselves are the engine's (`engine::stats`, beside the
+// others the device reports): how fragments move them is said here.
 impl FragmentStats {
-    /// Every counter at zero (for statics).
-    pub const ZERO: FragmentStats = FragmentStats {
-        fragments: 0,
-        reassembled: 0,
-        oversize: 0,
-        unwanted: 0,
-        malformed: 0,
-        no_buffer: 0,
-        duplicate: 0,
-        timed_out: 0,
-        evicted: 0,
-        spoiled: 0,
-        controller_incomplete: 0,
-        controller_dropped: 0,
-        controller_datagrams: 0,
-    };
-
-    /// Fragments dropped on arrival, all reasons.
-    pub fn dropped(&self) -> u32 {
-        self.oversize
-            .saturating_add(self.unwanted)
-            .saturating_add(self.malformed)
-            .saturating_add(self.no_buffer)
-            .saturating_add(self.duplicate)
-    }
-
-    /// Sets given up after holding a buffer, all reasons.
-    pub fn sets_lost(&self) -> u32 {
-        self.timed_out
-            .saturating_add(self.evicted)
-            .saturating_add(self.spoiled)
-    }
-
     fn count_drop(&mut self, reason: FragmentDrop) {
         let c = match reason {
             FragmentDrop::Oversize => &mut self.oversize,

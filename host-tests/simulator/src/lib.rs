@@ -23,6 +23,7 @@ pub mod replay;
 pub mod report;
 pub mod show;
 mod show_plot;
+pub mod shown;
 mod sim;
 mod stream;
 pub mod wire;

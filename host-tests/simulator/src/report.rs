@@ -19,7 +19,7 @@ pub struct Cycle {
     /// Which `--send` property (position in the list; 0 by default).
     pub property: usize,
     /// With `--show`: the shown values of the reply that answered it.
-    pub shown: Option<crate::show::Shown>,
+    pub shown: Option<crate::shown::Shown>,
 }
 
 impl Cycle {

@@ -12,47 +12,11 @@
 //! `--show` is given: without it the run's hot path is unchanged.
 
 use crate::report::Cycle;
+pub use crate::shown::{Cell, Shown};
 use crate::wire::{self, Element};
 use gsi_config::{attribute_names, Device, Property, SimpleType, TypeRef};
-use std::fmt;
 use std::io::{self, Write};
 use std::path::Path;
-
-/// One value as the reply carried it.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Cell {
-    /// `real`, `num` or `time` (plotted).
-    Num(f64),
-    /// `bool` (plotted as 0 / 1).
-    Bool(bool),
-    /// `string` or an enum member (printed and written, not plotted).
-    Text(String),
-    /// Missing or not parseable (only possible in a reply that failed the
-    /// layout's checks, which are never shown).
-    Missing,
-}
-
-impl Cell {
-    /// The value on a plot's y axis, if it has one.
-    pub fn number(&self) -> Option<f64> {
-        match self {
-            Cell::Num(x) => Some(*x),
-            Cell::Bool(b) => Some(f64::from(u8::from(*b))),
-            _ => None,
-        }
-    }
-}
-
-impl fmt::Display for Cell {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Cell::Num(x) => write!(f, "{x}"),
-            Cell::Bool(b) => f.write_str(if *b { "TRUE" } else { "FALSE" }),
-            Cell::Text(s) => f.write_str(s),
-            Cell::Missing => Ok(()),
-        }
-    }
-}
 
 /// How a slot's text becomes a [`Cell`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -258,16 +222,6 @@ fn unescape(s: &str) -> String {
         .replace("&quot;", "\"")
         .replace("&apos;", "'")
         .replace("&amp;", "&")
-}
-
-/// What one reply showed: its `Ts` (the device's clock, T2) and the
-/// values of the shown columns, in their order.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Shown {
-    /// The reply's `Ts`, seconds.
-    pub ts: Option<f64>,
-    /// One per [`Show::columns`].
-    pub values: Vec<Cell>,
 }
 
 /// A CSV field: quoted when it holds a comma, a quote or a line break.

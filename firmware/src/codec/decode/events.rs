@@ -22,16 +22,9 @@ pub(super) trait Visitor<'a> {
     /// A child element of the root opens (`<P_act`, `at` its `<`): a
     /// record's field (M2), or an unknown element.
     fn child(&mut self, prefix: &'a str, name: &'a str, at: usize) -> Result<(), DecodeError>;
-    /// An attribute of the root other than `Id` and `Ts` (`on_root`), or
-    /// of the open child (M4); `value` still has its character references.
-    fn attr(
-        &mut self,
-        on_root: bool,
-        prefix: &'a str,
-        name: &'a str,
-        value: &'a str,
-        at: usize,
-    ) -> Result<(), DecodeError>;
+    /// An attribute of the root other than `Id` and `Ts`, or of the open
+    /// child (M4).
+    fn attr(&mut self, a: Attr<'a>) -> Result<(), DecodeError>;
     /// Character data directly in the root (`on_root`) or in the open
     /// child (M3); CDATA (`cdata`) is taken literally, other text still
     /// has its character references.
@@ -49,6 +42,19 @@ pub(super) trait Visitor<'a> {
     fn child_end(&mut self) -> Result<(), DecodeError>;
     /// The root ends: the message is complete.
     fn root_end(&mut self) -> Result<(), DecodeError>;
+}
+
+/// One attribute as the walk tells it ([`Visitor::attr`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Attr<'a> {
+    /// On the root (`true`), or on the open child.
+    pub on_root: bool,
+    pub prefix: &'a str,
+    pub name: &'a str,
+    /// Still with its character references.
+    pub value: &'a str,
+    /// The value's byte offset in the datagram.
+    pub at: usize,
 }
 
 /// The root's attributes the engine needs (M1, M8).
@@ -148,7 +154,13 @@ pub(super) fn walk<'a, V: Visitor<'a>>(
                     }
                     ts = Some(parse_time(value.as_bytes()).map_err(|_| err(K::InvalidTs, at))?);
                 } else {
-                    v.attr(on_root, prefix, name, value.as_str(), at)?;
+                    v.attr(Attr {
+                        on_root,
+                        prefix,
+                        name,
+                        value: value.as_str(),
+                        at,
+                    })?;
                 }
                 last_end = base + span.end();
             }
@@ -286,15 +298,9 @@ mod tests {
             self.0.push(Event::Child(prefix, name, at));
             Ok(())
         }
-        fn attr(
-            &mut self,
-            on_root: bool,
-            prefix: &'a str,
-            name: &'a str,
-            value: &'a str,
-            at: usize,
-        ) -> Result<(), DecodeError> {
-            self.0.push(Event::Attr(on_root, prefix, name, value, at));
+        fn attr(&mut self, a: Attr<'a>) -> Result<(), DecodeError> {
+            self.0
+                .push(Event::Attr(a.on_root, a.prefix, a.name, a.value, a.at));
             Ok(())
         }
         fn text(
@@ -400,14 +406,7 @@ mod tests {
             fn child(&mut self, _: &'a str, _: &'a str, at: usize) -> Result<(), DecodeError> {
                 Err(err(K::Duplicate, at))
             }
-            fn attr(
-                &mut self,
-                _: bool,
-                _: &'a str,
-                _: &'a str,
-                _: &'a str,
-                _: usize,
-            ) -> Result<(), DecodeError> {
+            fn attr(&mut self, _: Attr<'a>) -> Result<(), DecodeError> {
                 Ok(())
             }
             fn text(&mut self, _: bool, _: &'a str, _: usize, _: bool) -> Result<(), DecodeError> {

@@ -37,7 +37,7 @@ use super::number::blank;
 use crate::schema::{Body, MessageCodec, MAX_FIELDS};
 use bind::{collect, components, finish_slot, set_component, Collected, Target};
 use error::{bump, err};
-use events::{Header, Visitor};
+use events::{Attr, Header, Visitor};
 
 /// The datagram as text. Robot messages are ASCII; checking that a block
 /// at a time is several times cheaper than full UTF-8 validation, which
@@ -228,14 +228,14 @@ impl<'a, M: MessageCodec> Visitor<'a> for Binder<'a, '_, M> {
     }
 
     #[inline(always)]
-    fn attr(
-        &mut self,
-        on_root: bool,
-        prefix: &'a str,
-        name: &'a str,
-        value: &'a str,
-        at: usize,
-    ) -> Result<(), DecodeError> {
+    fn attr(&mut self, a: Attr<'a>) -> Result<(), DecodeError> {
+        let Attr {
+            on_root,
+            prefix,
+            name,
+            value,
+            at,
+        } = a;
         // A record's values are in its children (M4), a value body's on
         // the root.
         if let (Target::Slot(i), true) = (self.target, on_root || !Self::VALUE_BODY) {
