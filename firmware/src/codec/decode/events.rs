@@ -25,16 +25,8 @@ pub(super) trait Visitor<'a> {
     /// An attribute of the root other than `Id` and `Ts`, or of the open
     /// child (M4).
     fn attr(&mut self, a: Attr<'a>) -> Result<(), DecodeError>;
-    /// Character data directly in the root (`on_root`) or in the open
-    /// child (M3); CDATA (`cdata`) is taken literally, other text still
-    /// has its character references.
-    fn text(
-        &mut self,
-        on_root: bool,
-        text: &'a str,
-        at: usize,
-        cdata: bool,
-    ) -> Result<(), DecodeError>;
+    /// Character data directly in the root or in the open child (M3).
+    fn text(&mut self, t: Text<'a>) -> Result<(), DecodeError>;
     /// A comment or processing instruction (`at` its `<`): an item no
     /// layout accounts for, which still cost tokenizing.
     fn other(&mut self, at: usize) -> Result<(), DecodeError>;
@@ -55,6 +47,19 @@ pub(super) struct Attr<'a> {
     pub value: &'a str,
     /// The value's byte offset in the datagram.
     pub at: usize,
+}
+
+/// Character data as the walk tells it ([`Visitor::text`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Text<'a> {
+    /// Directly in the root (`true`), or in the open child.
+    pub on_root: bool,
+    pub text: &'a str,
+    /// Its byte offset in the datagram.
+    pub at: usize,
+    /// CDATA, taken literally; other text still has its character
+    /// references.
+    pub cdata: bool,
 }
 
 /// The root's attributes the engine needs (M1, M8).
@@ -199,7 +204,12 @@ pub(super) fn walk<'a, V: Visitor<'a>>(
             Token::Text { text: t } | Token::Cdata { text: t, .. } => {
                 let cdata = matches!(token, Token::Cdata { .. });
                 if depth > 0 {
-                    v.text(depth == 1, t.as_str(), base + t.start(), cdata)?;
+                    v.text(Text {
+                        on_root: depth == 1,
+                        text: t.as_str(),
+                        at: base + t.start(),
+                        cdata,
+                    })?;
                 }
                 last_end = base + t.end();
             }
@@ -303,14 +313,8 @@ mod tests {
                 .push(Event::Attr(a.on_root, a.prefix, a.name, a.value, a.at));
             Ok(())
         }
-        fn text(
-            &mut self,
-            on_root: bool,
-            text: &'a str,
-            at: usize,
-            cdata: bool,
-        ) -> Result<(), DecodeError> {
-            self.0.push(Event::Text(on_root, text, at, cdata));
+        fn text(&mut self, t: Text<'a>) -> Result<(), DecodeError> {
+            self.0.push(Event::Text(t.on_root, t.text, t.at, t.cdata));
             Ok(())
         }
         fn other(&mut self, at: usize) -> Result<(), DecodeError> {
@@ -409,7 +413,7 @@ mod tests {
             fn attr(&mut self, _: Attr<'a>) -> Result<(), DecodeError> {
                 Ok(())
             }
-            fn text(&mut self, _: bool, _: &'a str, _: usize, _: bool) -> Result<(), DecodeError> {
+            fn text(&mut self, _: Text<'a>) -> Result<(), DecodeError> {
                 Ok(())
             }
             fn other(&mut self, _: usize) -> Result<(), DecodeError> {

@@ -37,7 +37,7 @@ use super::number::blank;
 use crate::schema::{Body, MessageCodec, MAX_FIELDS};
 use bind::{collect, components, finish_slot, set_component, Collected, Target};
 use error::{bump, err};
-use events::{Attr, Header, Visitor};
+use events::{Attr, Header, Text, Visitor};
 
 /// The datagram as text. Robot messages are ASCII; checking that a block
 /// at a time is several times cheaper than full UTF-8 validation, which
@@ -278,13 +278,13 @@ impl<'a, M: MessageCodec> Visitor<'a> for Binder<'a, '_, M> {
     }
 
     #[inline(always)]
-    fn text(
-        &mut self,
-        on_root: bool,
-        text: &'a str,
-        at: usize,
-        cdata: bool,
-    ) -> Result<(), DecodeError> {
+    fn text(&mut self, t: Text<'a>) -> Result<(), DecodeError> {
+        let Text {
+            on_root,
+            text,
+            at,
+            cdata,
+        } = t;
         match self.target {
             Target::Slot(i) if on_root == Self::VALUE_BODY => {
                 collect(M::field_mut(self.data, i), &mut self.c, text, at, cdata)
