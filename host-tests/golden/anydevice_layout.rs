@@ -305,52 +305,60 @@ impl MessageCodec for RobDataMessage {
         hand_over: &mut HandOver,
     ) -> Option<Decoded> {
         let (mut s, root) = Scan::root(bytes, b"<RobData", hand_over)?;
-        s.body()?;
+        s.fields()?;
         // <RobMode>…</RobMode>
         if s.open(b"<RobMode>") {
             data.operation_mode = s.text(b"</RobMode>", OperationMode::from_wire)?;
+            s.field_end(0);
         } else {
             s.missing();
         }
         // <Ts_act>…</Ts_act>
         if s.open(b"<Ts_act>") {
             data.feedback_time = s.text(b"</Ts_act>", compiled::time)?;
+            s.field_end(1);
         } else {
             s.missing();
         }
         // <P_act X="…" … Rz="…"/>
         if s.open_attrs(b"<P_act") {
             s.frame(&mut data.feedback_pose, b"</P_act>")?;
+            s.field_end(2);
         } else {
             s.missing();
         }
         // <J_act J1="…" … J6="…"/>
         if s.open_attrs(b"<J_act") {
             s.joints(&mut data.feedback_joints, b"</J_act>")?;
+            s.field_end(3);
         } else {
             s.missing();
         }
         // <Ts_des>…</Ts_des>
         if s.open(b"<Ts_des>") {
             data.predicted_time = s.text(b"</Ts_des>", compiled::time)?;
+            s.field_end(4);
         } else {
             s.missing();
         }
         // <P_des X="…" … Rz="…"/>
         if s.open_attrs(b"<P_des") {
             s.frame(&mut data.planned_pose, b"</P_des>")?;
+            s.field_end(5);
         } else {
             s.missing();
         }
         // <J_des J1="…" … J6="…"/>
         if s.open_attrs(b"<J_des") {
             s.joints(&mut data.planned_joints, b"</J_des>")?;
+            s.field_end(6);
         } else {
             s.missing();
         }
         // <AppData X1="…" … X18="…"/>
         if s.open_attrs(b"<AppData") {
             s.reals(&mut data.application_data, b"</AppData>")?;
+            s.field_end(7);
         } else {
             s.missing();
         }

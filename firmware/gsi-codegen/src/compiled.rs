@@ -146,7 +146,7 @@ pub(crate) fn emit_decode_compiled(
     let close = bytes_lit(&format!("</{w}>"));
     match p.ty {
         TypeRef::Record(r) => {
-            e.line("s.body()?;");
+            e.line("s.fields()?;");
             for (j, f) in d.records[r].fields.iter().enumerate() {
                 let fw = f.wire();
                 let place = format!("data.{}", id.fields[r][j]);
@@ -172,6 +172,7 @@ pub(crate) fn emit_decode_compiled(
                         e.line(attributes(attrs, &format!("&mut {place}"), &field_close));
                     }
                 }
+                e.line(format!("s.field_end({j});"));
                 e.close(" else {");
                 e.indent += 1;
                 e.line("s.missing();");

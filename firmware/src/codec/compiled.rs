@@ -34,9 +34,10 @@
 //! more pass than the general path alone.
 
 use super::decode::{Decoded, Tally};
-use super::hand_over::HandOver;
+use super::hand_over::{HandOver, Mark};
 use super::number::{
-    digit_count, is_xml_space, parse_f32, parse_time, parse_u32, plain_prefix, MAX_NUMBER_LEN,
+    digit_count, is_xml_space, parse_f32, parse_f32_general, parse_time, parse_u32, plain_prefix,
+    MAX_NUMBER_LEN,
 };
 use crate::codec::decode::parse_bool;
 use crate::value::{RriString, Time, MAX_STRING_LEN};
@@ -156,9 +157,13 @@ pub struct Scan<'a> {
     /// reads the same run again: this makes that a jump, so each run is
     /// read once however many attributes are tried after it.
     gap: (usize, usize),
-    /// The reals read the slow way, for the general path should this one
-    /// hand the datagram over ([`HandOver`]).
+    /// The reals read the slow way, and where the general path may resume,
+    /// for it should this one hand the datagram over ([`HandOver`]).
     hand_over: &'a mut HandOver,
+    /// The datagram's length: offsets for the marks.
+    len: usize,
+    /// The record's fields read whole so far, one bit each.
+    seen: u64,
 }
 
 impl<'a> Scan<'a> {
@@ -177,6 +182,8 @@ impl<'a> Scan<'a> {
             tally: Tally::default(),
             gap: (usize::MAX, 0),
             hand_over,
+            len: bytes.len(),
+            seen: 0,
         };
         s.ws();
         if s.rest.first() == Some(&b'<') && s.rest.get(1) == Some(&b'?') {
@@ -191,6 +198,7 @@ impl<'a> Scan<'a> {
             true => Some(parse_time(s.value()?).ok()?),
             false => None,
         };
+        s.hand_over.header = Some((id, ts));
         Some((s, Root { id, ts }))
     }
 
@@ -230,6 +238,36 @@ impl<'a> Scan<'a> {
     pub fn body(&mut self) -> Option<()> {
         self.ws();
         self.lit(b">").then_some(())
+    }
+
+    /// [`Scan::body`] of a record: its fields follow, and the general path
+    /// may resume here ([`Scan::field_end`]).
+    #[inline(always)]
+    pub fn fields(&mut self) -> Option<()> {
+        self.body()?;
+        self.mark(0);
+        Some(())
+    }
+
+    /// Field `j` of the record was read whole, up to its end: the general
+    /// path, should this one hand the datagram over after it, resumes here
+    /// with the fields seen and what was tolerated so far.
+    #[inline(always)]
+    pub fn field_end(&mut self, j: usize) {
+        self.mark(1u64.checked_shl(j as u32).unwrap_or(0));
+    }
+
+    #[inline(always)]
+    fn mark(&mut self, field: u64) {
+        self.seen |= field;
+        self.hand_over.mark = Mark {
+            at: self.len - self.rest.len(),
+            seen: self.seen,
+            tally: Tally {
+                missing_fields: 0,
+                ..self.tally
+            },
+        };
     }
 
     /// Whitespace, then the start tag of a text field, `<Ts_act>` (M3):
@@ -382,7 +420,9 @@ impl<'a> Scan<'a> {
         let (&b'"', rest) = rest.split_first()? else {
             return None;
         };
-        let v = real(value)?;
+        // Not the plain notation (`Scan::real` tried it): straight to the
+        // whole scanner, which gives what `parse_f32` gives for any text.
+        let v = parse_f32_general(value).ok()?;
         self.hand_over.keep(value, v);
         self.rest = rest;
         Some(v)

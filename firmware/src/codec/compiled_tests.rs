@@ -9,6 +9,8 @@ fn scan(text: &str) -> Scan<'_> {
         tally: Tally::default(),
         gap: (usize::MAX, 0),
         hand_over: hand_over(text.as_bytes()),
+        len: text.len(),
+        seen: 0,
     }
 }
 

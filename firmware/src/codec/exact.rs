@@ -16,7 +16,7 @@
 //! 2. An approximation in `f64` (a few `f64` ulps off, far below an `f32`
 //!    ulp) gives a candidate that is right or one `f32` step away.
 //! 3. The candidate is checked against the midpoints to its neighbours by
-//!    comparing `D × 10^e` with `m × 2^q` exactly, in a fixed 512-bit
+//!    comparing `D × 10^e` with `m × 2^q` exactly, in a fixed 448-bit
 //!    integer (the largest operand needs about 430 bits), and moved at most
 //!    a step or two. Ties round to even.
 
@@ -25,8 +25,9 @@ use core::cmp::Ordering;
 
 /// Significant digits taken exactly (see the module doc for why 120).
 const KEPT: usize = 120;
-/// 32-bit words in [`Big`]: 512 bits, for the largest operand's 430.
-const WORDS: usize = 16;
+/// 32-bit words in [`Big`]: 448 bits, for the largest operand's 430 (the
+/// bound test, `big_never_overflows_within_bounds`, holds it to that).
+const WORDS: usize = 14;
 /// Beyond these, a value is out of range (≥ 10^39 > `f32::MAX`) or rounds
 /// to zero (< 10^-46 < 2^-150, half the smallest subnormal).
 const MAX_MAGNITUDE: i32 = 38;

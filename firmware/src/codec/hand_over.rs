@@ -16,12 +16,35 @@
 //! the compiled path takes none with a reference in it). Both paths meet
 //! the values in document order, so one cursor finds each in constant
 //! time. Bounded: [`SLOTS`] values, the rest parsed again as before.
+//!
+//! And where the general path may start: the compiled path marks the end
+//! of each field of a record it read whole (its mark); everything before
+//! the last mark it checked byte for byte, with nothing the layout does
+//! not hold, so the general path's walk there is known (in the root, its
+//! `Id` and `Ts`, the fields seen and what was tolerated) and it resumes
+//! there instead of tokenizing the datagram from its start.
+
+use super::decode::Tally;
+use crate::value::Time;
 
 /// Reals kept: more than a robot message holds attribute reals in most
 /// layouts (the manual's has 42); 8 bytes each on the stack of `decode`.
 pub const SLOTS: usize = 64;
 
-/// The reals the compiled path read the slow way, in document order.
+/// Where the general path may resume: the end of the last field of a
+/// record the compiled path read whole (or of the root's start tag), the
+/// fields seen up to there and what was tolerated in them (its
+/// `missing_fields` left at 0: the general path counts those at the end).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Mark {
+    /// A byte offset in the datagram; 0: no mark.
+    pub at: usize,
+    pub seen: u64,
+    pub tally: Tally,
+}
+
+/// The reals the compiled path read the slow way, in document order, and
+/// where the general path may resume (its mark).
 pub struct HandOver {
     /// The address of the datagram's first byte (offsets are from it),
     /// and its length.
@@ -31,6 +54,10 @@ pub struct HandOver {
     /// none, and does not pay for clearing 512 bytes every cycle (it did:
     /// +195 instructions a message on the MCU).
     kept: Option<Kept>,
+    /// The root's `Id` and `Ts`, once the compiled path is past its start
+    /// tag into a record's fields.
+    pub(crate) header: Option<(u32, Option<Time>)>,
+    pub(crate) mark: Mark,
 }
 
 struct Kept {
@@ -50,6 +77,8 @@ impl HandOver {
             base: bytes.as_ptr() as usize,
             size: bytes.len(),
             kept: None,
+            header: None,
+            mark: Mark::default(),
         }
     }
 
@@ -65,25 +94,35 @@ impl HandOver {
     }
 
     /// The compiled path read `text` as `v`. Values come in document
-    /// order; one past [`SLOTS`] is not kept.
-    #[inline(never)]
+    /// order; one past [`SLOTS`] is not kept. Inline: a hostile message
+    /// calls it for every real (a call each cost the halfway case about
+    /// 800 instructions on the MCU); the table is made out of line.
+    #[inline(always)]
     pub fn keep(&mut self, text: &[u8], v: f32) {
         let Some(place) = self.place(text) else {
             return;
         };
-        // Lazily: eagerly, every call would build (clear) the whole table.
-        #[allow(clippy::unnecessary_lazy_evaluations)]
-        let k = self.kept.get_or_insert_with(|| Kept {
-            at: [(0, 0); SLOTS],
-            value: [0.0; SLOTS],
-            len: 0,
-            next: 0,
-        });
+        let k = match &mut self.kept {
+            Some(k) => k,
+            None => Self::make(&mut self.kept),
+        };
         if let (Some(at), Some(value)) = (k.at.get_mut(k.len), k.value.get_mut(k.len)) {
             *at = place;
             *value = v;
             k.len += 1;
         }
+    }
+
+    /// The table, made at the first real kept.
+    #[cold]
+    #[inline(never)]
+    fn make(kept: &mut Option<Kept>) -> &mut Kept {
+        kept.insert(Kept {
+            at: [(0, 0); SLOTS],
+            value: [0.0; SLOTS],
+            len: 0,
+            next: 0,
+        })
     }
 
     /// The value kept for exactly `text`, if any: the general path asks in

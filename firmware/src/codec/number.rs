@@ -401,7 +401,7 @@ fn plain_value(negative: bool, m: u64, fraction: usize) -> Option<f32> {
 /// whitespace, exponents, long mantissas, midpoints. Out of line, so the
 /// plain path keeps its registers.
 #[inline(never)]
-fn parse_f32_general(text: &[u8]) -> Result<f32, NumberError> {
+pub(crate) fn parse_f32_general(text: &[u8]) -> Result<f32, NumberError> {
     let t = trim(text);
     if t.len() > MAX_NUMBER_LEN {
         return Err(NumberError::TooLong);

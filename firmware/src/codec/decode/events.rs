@@ -10,7 +10,7 @@
 //! the visitor is told at most one event per token.
 
 use super::error::{err, DecodeError, DecodeErrorKind as K};
-use crate::codec::number::{is_xml_space_char, parse_time, parse_u32};
+use crate::codec::number::{blank, is_xml_space_char, parse_time, parse_u32};
 use crate::value::Time;
 use xmlparser::{ElementEnd, Token, Tokenizer};
 
@@ -71,14 +71,34 @@ pub(super) struct Header {
     pub ts: Option<Time>,
 }
 
+/// Where a walk starts inside the root, between two of its children: a
+/// byte offset in the datagram at which the compiled path had checked
+/// everything before (`codec::HandOver`), and the root's `Id` and `Ts` it
+/// read there.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Start {
+    pub at: usize,
+    pub id: u32,
+    pub ts: Option<Time>,
+}
+
 /// Walks the datagram `text`, whose root must be named `root`, telling
 /// `v` each structural event; returns the root's `Id` and `Ts` once the
 /// root has ended and nothing but comments and whitespace follow.
+///
+/// From `from` when given: the tokens before it are not read again, and
+/// the walk is where it would be there (in the root, its header read).
+/// `xmlparser` then tokenizes a fragment, which after the root's end
+/// gives text, CDATA and tags as tokens instead of refusing them: each is
+/// refused here as the whole document's walk refuses it (trailing
+/// garbage, at the end of the last token), and whitespace is skipped as
+/// it would be.
 #[inline(always)]
 pub(super) fn walk<'a, V: Visitor<'a>>(
     text: &'a str,
     root: &str,
     v: &mut V,
+    from: Option<Start>,
 ) -> Result<Header, DecodeError> {
     // M1: whitespace may precede the declaration; xmlparser does not allow
     // it, so skip it and keep offsets relative to the datagram.
@@ -96,9 +116,25 @@ pub(super) fn walk<'a, V: Visitor<'a>>(
     // Offset just after the last complete token: where an error is
     // reported when the tokenizer fails.
     let mut last_end = base;
+    let tokens = match from {
+        Some(start) if start.at >= base && start.at <= text.len() => {
+            (depth, id, ts, last_end) = (1, Some(start.id), start.ts, start.at);
+            Tokenizer::from_fragment(body, start.at - base..body.len())
+        }
+        _ => Tokenizer::from(body),
+    };
 
-    for token in Tokenizer::from(body) {
+    for token in tokens {
         let token = token.map_err(|e| token_error(&e, done, body, base, last_end))?;
+        if done {
+            // After the root (a fragment's tokens only: the whole
+            // document's tokenizer refuses these itself).
+            match token {
+                Token::Text { text: t } if blank(t.as_bytes()) => continue,
+                Token::ProcessingInstruction { .. } | Token::Comment { .. } => {}
+                _ => return Err(err(K::TrailingGarbage, last_end)),
+            }
+        }
         match token {
             Token::Declaration { span, .. } => last_end = base + span.end(),
             Token::ProcessingInstruction { span, .. } | Token::Comment { span, .. } => {
@@ -115,9 +151,6 @@ pub(super) fn walk<'a, V: Visitor<'a>>(
                 span,
             } => {
                 let at = base + span.start();
-                if done {
-                    return Err(err(K::TrailingGarbage, at));
-                }
                 if span.end() >= body.len() {
                     // `<RobD` at the end: the name itself was cut.
                     return Err(err(K::Truncated, at));
@@ -334,7 +367,7 @@ mod tests {
     /// Every event of `text` (root `R`) and how the walk ended.
     fn events(text: &str) -> (Vec<Event<'_>>, Result<Header, DecodeError>) {
         let mut v = Record::default();
-        let header = walk(text, "R", &mut v);
+        let header = walk(text, "R", &mut v, None);
         (v.0, header)
     }
 
@@ -426,7 +459,7 @@ mod tests {
                 panic!("the walk went on after an error")
             }
         }
-        let e = walk("<R Id=\"1\"><A/></R>", "R", &mut Refuse).unwrap_err();
+        let e = walk("<R Id=\"1\"><A/></R>", "R", &mut Refuse, None).unwrap_err();
         assert_eq!((e.kind, e.offset), (K::Duplicate, 10));
     }
 

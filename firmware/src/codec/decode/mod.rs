@@ -116,8 +116,25 @@ fn general<M: MessageCodec>(
         return Err(err(K::TooLong, M::MAX_RECEIVE_LEN));
     }
     let text = utf8(bytes).map_err(|e| err(K::NotUtf8, e.valid_up_to()))?;
+    // Where the compiled path got to, if it read a record's fields (never a
+    // value body's): the walk resumes there, in the state it would have.
+    let start = match (Binder::<M>::VALUE_BODY, hand_over.header, hand_over.mark) {
+        (false, Some((id, ts)), mark) if mark.at > 0 => Some((
+            events::Start {
+                at: mark.at,
+                id,
+                ts,
+            },
+            mark,
+        )),
+        _ => None,
+    };
     let mut binder = Binder::<M>::new(data, hand_over);
-    let Header { id, ts } = events::walk(text, M::WIRE_NAME, &mut binder)?;
+    if let Some((_, mark)) = start {
+        binder.seen = mark.seen;
+        binder.tally = mark.tally;
+    }
+    let Header { id, ts } = events::walk(text, M::WIRE_NAME, &mut binder, start.map(|(s, _)| s))?;
     Ok(Decoded {
         id,
         ts,
