@@ -342,6 +342,20 @@ fn a_late_hand_over_resumes_where_the_compiled_path_stopped() {
             || tail.starts_with("<?pi");
         assert_eq!(general.is_ok(), blank_or_misc, "{tail:?}: {general:?}");
     }
+    // Before the root's end tag, after whitespace the resumed walk skips
+    // (the mark moves past it when a tag follows).
+    for end in [
+        "   </RobDatx>",
+        "   x</RobData>",
+        " \n<!-- c --></RobData>",
+        "\t</RobData >x",
+        "  </RobData",
+        "  <",
+        "  ",
+    ] {
+        let text = COMPACT.replace("</RobData>", end);
+        agree::<manual::RobDataMessage>(text.as_bytes(), &prior::<manual::RobDataMessage>());
+    }
     // A hand-over in each field: a comment inside it, a bad value, the
     // field cut short.
     for field in [

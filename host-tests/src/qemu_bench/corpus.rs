@@ -174,6 +174,19 @@ pub fn hostile() -> Vec<Input> {
             accepted: true,
         },
         Input {
+            name: "handed over late".into(),
+            // The same, its last byte wrong (issue 36, finding 2): the
+            // compiled path reads it all, then hands it over; the general
+            // path resumes at its last field and takes its reals as read.
+            text: format!(
+                "{}x",
+                every_real_halfway
+                    .strip_suffix('>')
+                    .unwrap_or(&every_real_halfway)
+            ),
+            accepted: false,
+        },
+        Input {
             name: "every real a halfway case".into(),
             text: every_real_halfway,
             accepted: true,

@@ -101,8 +101,18 @@ pub(super) fn walk<'a, V: Visitor<'a>>(
     from: Option<Start>,
 ) -> Result<Header, DecodeError> {
     // M1: whitespace may precede the declaration; xmlparser does not allow
-    // it, so skip it and keep offsets relative to the datagram.
-    let body = text.trim_start_matches(is_xml_space_char);
+    // it, so skip it and keep offsets relative to the datagram. A resumed
+    // walk reads from its start: `xmlparser` counts lines and columns from
+    // the first byte of the text it is given for every error, so giving
+    // it the whole datagram would scan it all again (38,600 x86
+    // instructions for a refused 3.5 KB message).
+    let trimmed = text.trim_start_matches(is_xml_space_char);
+    let lead = text.len() - trimmed.len();
+    let resumed = from.and_then(|s| Some((s, text.get(s.at..)?)));
+    let body = match resumed {
+        Some((_, rest)) => rest,
+        None => trimmed,
+    };
     let base = text.len() - body.len();
     // 0 outside the root, 1 in the root, 2 in a child.
     let mut depth: u8 = 0;
@@ -116,16 +126,16 @@ pub(super) fn walk<'a, V: Visitor<'a>>(
     // Offset just after the last complete token: where an error is
     // reported when the tokenizer fails.
     let mut last_end = base;
-    let tokens = match from {
-        Some(start) if start.at >= base && start.at <= text.len() => {
-            (depth, id, ts, last_end) = (1, Some(start.id), start.ts, start.at);
-            Tokenizer::from_fragment(body, start.at - base..body.len())
+    let tokens = match resumed {
+        Some((start, _)) => {
+            (depth, id, ts) = (1, Some(start.id), start.ts);
+            Tokenizer::from_fragment(body, 0..body.len())
         }
-        _ => Tokenizer::from(body),
+        None => Tokenizer::from(body),
     };
 
     for token in tokens {
-        let token = token.map_err(|e| token_error(&e, done, body, base, last_end))?;
+        let token = token.map_err(|e| token_error(&e, done, text, lead, last_end))?;
         if done {
             // After the root (a fragment's tokens only: the whole
             // document's tokenizer refuses these itself).
@@ -257,18 +267,20 @@ pub(super) fn walk<'a, V: Visitor<'a>>(
 
 /// The error of a token the tokenizer refused: trailing garbage after the
 /// root (`done`), a message cut short, or malformed XML. `last_end` is the
-/// datagram offset after the last good token; `body` starts at `base`.
+/// datagram offset after the last good token, `lead` the length of the
+/// whitespace the datagram starts with (a resumed walk's tokens start
+/// later, but the rule is the whole datagram's).
 #[cold]
 fn token_error(
     e: &xmlparser::Error,
     done: bool,
-    body: &str,
-    base: usize,
+    text: &str,
+    lead: usize,
     last_end: usize,
 ) -> DecodeError {
     let kind = if done {
         K::TrailingGarbage
-    } else if ends_early(e) || unfinished_tail(body, last_end - base) {
+    } else if ends_early(e) || unfinished_tail(text, last_end, last_end == lead) {
         // The tokenizer stopped because the input did.
         K::Truncated
     } else {
@@ -280,11 +292,11 @@ fn token_error(
 /// Whether the input after the last complete token is only the start of
 /// one (`<`, `</Ts_`, `<P_act X="1" `): no `>` outside quotes, so more bytes
 /// could have completed it. Error path only: linear in the tail.
-fn unfinished_tail(text: &str, from: usize) -> bool {
+fn unfinished_tail(text: &str, from: usize, first: bool) -> bool {
     let Some(tail) = text.as_bytes().get(from..) else {
         return false;
     };
-    if from == 0 && !tail.contains(&b'<') {
+    if first && !tail.contains(&b'<') {
         // Text without any markup (`hello robot`) is no cut message.
         return false;
     }
