@@ -3,35 +3,34 @@
 //!
 //! - **compute**: the engine's work (peer check, decode, application,
 //!   encode), read around `Engine::on_message`;
-//! - **full**: from the driver handing the last frame before the message to
-//!   the stack, to the driver taking the reply's first frame for the NIC.
+//! - **full**: from the moment the stack takes the frame that completes
+//!   the message (its last fragment, or its only frame) from the fragment
+//!   guard, to the moment the driver has taken the reply's first frame
+//!   for the NIC;
+//! - **where the frames in went**, per layer: for the frame that starts
+//!   the full span, reading it from the NIC (before the span), then the
+//!   driver's share (handing it over, taking it back), the guard's (checks,
+//!   reassembly, the reassembled datagram's UDP checksum, its counters)
+//!   and smoltcp's (the frame handed to the stack, up to the socket's
+//!   queue); and every other frame taken in since the last message (the
+//!   earlier fragments) as one figure, outside the full span. The probe's
+//!   own counter reads (eight a frame) fall into these shares.
 //!
 //! The counter is the board's free-running cycle counter (under QEMU
-//! `-icount` a fixed number of instructions per count). Records go through
-//! a channel to a thread-mode task that logs them: nothing here waits or
-//! logs on the cycle path.
-//!
-//! [`Tap`] wraps any `embassy-net-driver` driver to see the frames (as
-//! smoltcp's `phy` wrappers do); it only reads the counter.
+//! `-icount` a fixed number of instructions per count), registered once
+//! with [`count_with`]. The guard reads it through a `Probe` around each
+//! frame (in other builds its probe is an empty type: nothing is read).
+//! Records go through a channel to a thread-mode task that logs them:
+//! nothing here waits or logs on the cycle path.
 
+use crate::fragments::probe::{Mark, MARKS};
+use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use core::task::Context;
-use embassy_net_driver::{Capabilities, Driver, HardwareAddress, LinkState};
+use critical_section::Mutex;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 
-/// One robot message as the bench sees it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
-pub struct Record {
-    /// Datagram (or TCP message) length.
-    pub bytes: u32,
-    /// Answered (`true`) or dropped.
-    pub answered: bool,
-    /// Counts of the engine's work.
-    pub compute: u32,
-    /// Counts from frame in to reply frame out; 0 when not answered.
-    pub full: u32,
-}
+pub use crate::bench_line::Record;
 
 /// Records waiting for the logger; when it falls behind, records are
 /// counted in [`LOST`] instead of waiting.
@@ -39,94 +38,188 @@ pub static RECORDS: Channel<CriticalSectionRawMutex, Record, 64> = Channel::new(
 /// Records the logger could not take in time.
 pub static LOST: AtomicU32 = AtomicU32::new(0);
 
-/// The last frames the driver handed to the stack: when, the IPv4
-/// identification, and the UDP source port (0 for a non-first fragment or
-/// anything not UDP). A message's "frame in" is the newest frame of the
-/// newest datagram from its sender: its last fragment.
-#[derive(Clone, Copy, Default)]
-struct Seen {
-    tick: u32,
-    ident: u16,
-    src_port: u16,
+fn no_counter() -> u32 {
+    0
 }
 
-const SEEN: usize = 16;
-static RX_SEEN: critical_section::Mutex<core::cell::RefCell<([Seen; SEEN], usize)>> =
-    critical_section::Mutex::new(core::cell::RefCell::new((
-        [Seen {
-            tick: 0,
-            ident: 0,
-            src_port: 0,
-        }; SEEN],
-        0,
-    )));
+static COUNTER: Mutex<Cell<fn() -> u32>> = Mutex::new(Cell::new(no_counter));
 
-/// IPv4 identification and UDP source port of an Ethernet frame.
-fn ipv4_udp(frame: &[u8]) -> Option<(u16, u16)> {
+/// Registers the counter the bench measures with (the board's
+/// `cycle_counter`); until then every count is 0.
+pub fn count_with(counter: fn() -> u32) {
+    critical_section::with(|cs| COUNTER.borrow(cs).set(counter));
+}
+
+fn counter() -> fn() -> u32 {
+    critical_section::with(|cs| COUNTER.borrow(cs).get())
+}
+
+/// One frame's counts, per layer.
+#[derive(Clone, Copy, Default)]
+struct Layers {
+    /// Before its token is consumed: the driver reading the frame from
+    /// the NIC, smoltcp taking the token.
+    read: u32,
+    driver: u32,
+    guard: u32,
+    smoltcp: u32,
+}
+
+impl Layers {
+    fn total(&self) -> u32 {
+        self.read
+            .wrapping_add(self.driver)
+            .wrapping_add(self.guard)
+            .wrapping_add(self.smoltcp)
+    }
+}
+
+/// The frames taken in since the last message: the newest that handed the
+/// stack a UDP datagram (with when its frame came and the datagram's
+/// source port), and the sum of all the others.
+#[derive(Clone, Copy, Default)]
+struct FramesIn {
+    frames: u32,
+    datagram: Option<(Layers, u32, u16)>,
+    before: u32,
+}
+
+static FRAMES_IN: Mutex<Cell<FramesIn>> = Mutex::new(Cell::new(FramesIn {
+    frames: 0,
+    datagram: None,
+    before: 0,
+}));
+
+/// The UDP source port of a whole IPv4 datagram in an Ethernet frame.
+fn udp_source_port(frame: &[u8]) -> Option<u16> {
     let be = |i: usize| -> Option<u16> {
         Some(u16::from_be_bytes([*frame.get(i)?, *frame.get(i + 1)?]))
     };
-    if be(12)? != 0x0800 {
-        return None;
-    }
+    let whole = be(12)? == 0x0800 && be(20)? & 0x3fff == 0 && *frame.get(23)? == 17;
     let ihl = usize::from(frame.get(14)? & 0x0f) * 4;
-    let ident = be(18)?;
-    let first_fragment = be(20)? & 0x1fff == 0;
-    let udp = *frame.get(23)? == 17;
-    let src_port = if udp && first_fragment {
-        be(14 + ihl)?
+    if whole {
+        be(14 + ihl)
     } else {
-        0
-    };
-    Some((ident, src_port))
+        None
+    }
 }
 
-fn note_rx(frame: &[u8], tick: u32) {
-    let Some((ident, src_port)) = ipv4_udp(frame) else {
-        return;
-    };
-    critical_section::with(|cs| {
-        let mut seen = RX_SEEN.borrow_ref_mut(cs);
-        let (ring, next) = &mut *seen;
-        if let Some(slot) = ring.get_mut(*next % SEEN) {
-            *slot = Seen {
-                tick,
-                ident,
-                src_port,
-            };
+/// The counts around one frame the fragment guard takes in: from the
+/// guard asking the driver for a frame, at each [`Mark`], and how long
+/// smoltcp had it.
+pub(crate) struct Probe {
+    counter: fn() -> u32,
+    start: u32,
+    at: [u32; MARKS],
+    smoltcp: u32,
+    src_port: Option<u16>,
+}
+
+impl Probe {
+    /// The guard asks the driver for a frame.
+    pub(crate) fn start() -> Probe {
+        let counter = counter();
+        let start = counter();
+        Probe {
+            counter,
+            start,
+            at: [start; MARKS],
+            smoltcp: 0,
+            src_port: None,
         }
-        *next = next.wrapping_add(1);
-    });
+    }
+
+    /// The frame has reached `at`.
+    pub(crate) fn mark(&mut self, at: Mark) {
+        if let Some(slot) = self.at.get_mut(at as usize) {
+            *slot = (self.counter)();
+        }
+    }
+
+    /// The stack takes `frame` (`f`): timed, and its UDP source port noted
+    /// when it is a whole datagram.
+    pub(crate) fn smoltcp<R>(&mut self, frame: &mut [u8], f: impl FnOnce(&mut [u8]) -> R) -> R {
+        self.src_port = udp_source_port(frame);
+        let at = (self.counter)();
+        let r = f(frame);
+        self.smoltcp = self.smoltcp.wrapping_add((self.counter)().wrapping_sub(at));
+        r
+    }
+
+    /// When the stack consumed the frame's token: the span of a message
+    /// this frame completes starts here.
+    fn taken(&self) -> u32 {
+        self.at
+            .get(Mark::Taken as usize)
+            .copied()
+            .unwrap_or(self.start)
+    }
+
+    /// This frame's counts per layer, the guard done with it at `end`.
+    fn layers(&self, end: u32) -> Layers {
+        let at = |m: Mark| self.at.get(m as usize).copied().unwrap_or(self.start);
+        let span = |from: u32, to: u32| to.wrapping_sub(from);
+        Layers {
+            read: span(self.start, at(Mark::Taken)),
+            driver: span(at(Mark::Calling), at(Mark::Opened))
+                .wrapping_add(span(at(Mark::Closed), at(Mark::After))),
+            guard: span(at(Mark::Taken), at(Mark::Calling))
+                .wrapping_add(span(at(Mark::Opened), at(Mark::Closed)).wrapping_sub(self.smoltcp))
+                .wrapping_add(span(at(Mark::After), end)),
+            smoltcp: self.smoltcp,
+        }
+    }
+
+    /// The guard is done with the frame: its layers are noted for the next
+    /// message's record.
+    pub(crate) fn end(self) {
+        let layers = self.layers((self.counter)());
+        critical_section::with(|cs| {
+            let cell = FRAMES_IN.borrow(cs);
+            let mut seen = cell.get();
+            seen.frames = seen.frames.wrapping_add(1);
+            let other = match self.src_port {
+                Some(port) => seen
+                    .datagram
+                    .replace((layers, self.taken(), port))
+                    .map(|(l, _, _)| l),
+                None => Some(layers),
+            };
+            seen.before = seen.before.wrapping_add(other.map_or(0, |l| l.total()));
+            cell.set(seen);
+        });
+    }
+
+    /// The driver took a frame to send; `reply`: the first frame of a reply
+    /// from the channel port. Completes the pending record.
+    pub(crate) fn sent(reply: bool) {
+        if reply && PENDING.swap(false, Ordering::AcqRel) {
+            let out = counter()();
+            let (mut record, rx) = critical_section::with(|cs| PENDING_RECORD.borrow(cs).get());
+            record.full = out.wrapping_sub(rx);
+            push(record);
+        }
+    }
 }
 
-/// When the last frame of the newest datagram from `src_port` came in.
-fn rx_tick_of(src_port: u16) -> Option<u32> {
-    critical_section::with(|cs| {
-        let seen = RX_SEEN.borrow_ref(cs);
-        let (ring, next) = &*seen;
-        let newest = |f: &dyn Fn(&Seen) -> bool| {
-            (1..=SEEN)
-                .filter_map(|back| ring.get(next.wrapping_sub(back) % SEEN))
-                .find(|s| f(s))
-                .copied()
-        };
-        let first = newest(&|s| s.src_port == src_port)?;
-        newest(&|s| s.ident == first.ident).map(|s| s.tick)
-    })
-}
-
-/// Set when an answer is queued: the next frame out completes its record.
+/// Set when an answer is queued: the reply's first frame out completes its
+/// record.
 static PENDING: AtomicBool = AtomicBool::new(false);
-static PENDING_RECORD: critical_section::Mutex<core::cell::Cell<(Record, u32)>> =
-    critical_section::Mutex::new(core::cell::Cell::new((
-        Record {
-            bytes: 0,
-            answered: false,
-            compute: 0,
-            full: 0,
-        },
-        0,
-    )));
+static PENDING_RECORD: Mutex<Cell<(Record, u32)>> = Mutex::new(Cell::new((
+    Record {
+        bytes: 0,
+        answered: false,
+        compute: 0,
+        full: 0,
+        frames: 0,
+        read: 0,
+        driver: 0,
+        guard: 0,
+        smoltcp: 0,
+        before: 0,
+    },
+    0,
+)));
 
 fn push(record: Record) {
     if RECORDS.try_send(record).is_err() {
@@ -137,107 +230,31 @@ fn push(record: Record) {
 /// Called by the cycle's monitor after the engine handled a message;
 /// `answered_to`: the port the reply goes to.
 pub fn message(bytes: usize, answered_to: Option<u16>, counts: (u32, u32)) {
+    let seen = critical_section::with(|cs| FRAMES_IN.borrow(cs).replace(FramesIn::default()));
+    // The span starts at the datagram's frame when it came from the port
+    // answered.
+    let (layers, rx) = match seen.datagram {
+        Some((layers, rx, port)) => (layers, (Some(port) == answered_to).then_some(rx)),
+        None => (Layers::default(), None),
+    };
     let record = Record {
         bytes: u32::try_from(bytes).unwrap_or(u32::MAX),
         answered: answered_to.is_some(),
         compute: counts.1.wrapping_sub(counts.0),
         full: 0,
+        frames: seen.frames,
+        read: layers.read,
+        driver: layers.driver,
+        guard: layers.guard,
+        smoltcp: layers.smoltcp,
+        before: seen.before,
     };
-    match answered_to.and_then(rx_tick_of) {
+    match rx {
         Some(rx) => {
             critical_section::with(|cs| PENDING_RECORD.borrow(cs).set((record, rx)));
             PENDING.store(true, Ordering::Release);
         }
         None => push(record),
-    }
-}
-
-/// A driver that notes when frames pass, reading `counter`.
-pub struct Tap<D> {
-    inner: D,
-    counter: fn() -> u32,
-}
-
-impl<D> Tap<D> {
-    /// Wraps the board's driver `inner`; `counter` reads the instruction
-    /// counter the bench measures with.
-    pub fn new(inner: D, counter: fn() -> u32) -> Self {
-        Tap { inner, counter }
-    }
-}
-
-/// A received frame's token that notes the counter when the stack
-/// consumes it (the start of a cycle's measured span).
-pub struct TapRx<T> {
-    inner: T,
-    counter: fn() -> u32,
-}
-
-/// A frame to send whose token notes the counter when the reply leaves
-/// (the end of a cycle's measured span).
-pub struct TapTx<T> {
-    inner: T,
-    counter: fn() -> u32,
-}
-
-impl<T: embassy_net_driver::RxToken> embassy_net_driver::RxToken for TapRx<T> {
-    fn consume<R, F: FnOnce(&mut [u8]) -> R>(self, f: F) -> R {
-        let tick = (self.counter)();
-        self.inner.consume(|frame| {
-            note_rx(frame, tick);
-            f(frame)
-        })
-    }
-}
-
-impl<T: embassy_net_driver::TxToken> embassy_net_driver::TxToken for TapTx<T> {
-    fn consume<R, F: FnOnce(&mut [u8]) -> R>(self, len: usize, f: F) -> R {
-        let counter = self.counter;
-        let r = self.inner.consume(len, f);
-        if PENDING.swap(false, Ordering::AcqRel) {
-            let out = counter();
-            let (mut record, rx) = critical_section::with(|cs| PENDING_RECORD.borrow(cs).get());
-            record.full = out.wrapping_sub(rx);
-            push(record);
-        }
-        r
-    }
-}
-
-impl<D: Driver> Driver for Tap<D> {
-    type RxToken<'a>
-        = TapRx<D::RxToken<'a>>
-    where
-        Self: 'a;
-    type TxToken<'a>
-        = TapTx<D::TxToken<'a>>
-    where
-        Self: 'a;
-
-    fn receive(&mut self, cx: &mut Context) -> Option<(Self::RxToken<'_>, Self::TxToken<'_>)> {
-        let counter = self.counter;
-        self.inner
-            .receive(cx)
-            .map(|(rx, tx)| (TapRx { inner: rx, counter }, TapTx { inner: tx, counter }))
-    }
-
-    fn transmit(&mut self, cx: &mut Context) -> Option<Self::TxToken<'_>> {
-        let counter = self.counter;
-        self.inner
-            .transmit(cx)
-            .map(|inner| TapTx { inner, counter })
-    }
-
-    fn link_state(&mut self, cx: &mut Context) -> LinkState {
-        self.inner.link_state(cx)
-    }
-
-    fn capabilities(&self) -> Capabilities {
-        self.inner.capabilities()
-    }
-
-    fn hardware_address(&self) -> HardwareAddress {
-        self.inner.hardware_address()
     }
 }
 

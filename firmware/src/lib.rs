@@ -32,6 +32,7 @@ extern crate self as rri_firmware;
 pub mod baseline;
 #[cfg(feature = "bench")]
 pub mod bench;
+pub mod bench_line;
 pub mod codec;
 pub mod demo;
 pub mod engine;

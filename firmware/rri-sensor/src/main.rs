@@ -83,12 +83,8 @@ const WATCHDOG_MS: u32 = 2_000;
 
 /// The board's driver as the stack sees it: behind the fragment guard
 /// (S5: robot messages longer than a frame are reassembled there, under
-/// rules no other sender can use to lock the controller out) and, in bench
-/// builds, the bench's tap next to the driver (its "frame in" is the
-/// driver's, before the guard).
-#[cfg(feature = "bench")]
-type Driver = rri_firmware::bench::Tap<board::Net>;
-#[cfg(not(feature = "bench"))]
+/// rules no other sender can use to lock the controller out; in bench
+/// builds the guard also counts each frame's instructions per layer).
 type Driver = board::Net;
 type Nic = FragmentGuard<'static, Driver, REASSEMBLY_BUF>;
 
@@ -174,11 +170,9 @@ fn main() -> ! {
         defmt::panic!("the sample cell was split twice")
     };
     #[cfg(feature = "bench")]
-    let nic = rri_firmware::bench::Tap::new(b.net, board::cycle_counter);
-    #[cfg(not(feature = "bench"))]
-    let nic = b.net;
+    rri_firmware::bench::count_with(board::cycle_counter);
     start_network(
-        nic,
+        b.net,
         b.seed,
         reader,
         #[cfg(rri_http)]
@@ -444,11 +438,17 @@ async fn bench_log() -> ! {
     loop {
         let r = RECORDS.receive().await;
         defmt::info!(
-            "bench bytes={=u32} answered={=bool} compute={=u32} full={=u32} lost={=u32}",
+            "bench bytes={=u32} answered={=bool} compute={=u32} full={=u32} frames={=u32} read={=u32} driver={=u32} guard={=u32} smoltcp={=u32} before={=u32} lost={=u32}",
             r.bytes,
             r.answered,
             r.compute,
             r.full,
+            r.frames,
+            r.read,
+            r.driver,
+            r.guard,
+            r.smoltcp,
+            r.before,
             LOST.load(core::sync::atomic::Ordering::Relaxed)
         );
     }

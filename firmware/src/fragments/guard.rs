@@ -31,6 +31,10 @@
 //! TCP segment with data for it) to the moment the driver takes the
 //! reply's first frame (from the channel port, with data).
 //!
+//! In bench builds it counts each frame's instructions per layer (the
+//! driver's, its own, smoltcp's: the `probe` module) for `cargo
+//! qemu-bench`.
+//!
 //! It also ends a poll of the network runner after each datagram for the
 //! channel port it hands on (and after [`FRAMES_PER_POLL`] frames).
 //! smoltcp takes frames until the driver has none left, so under a flood
@@ -44,6 +48,7 @@
 //! than two datagrams for the channel (it has room for `net::QUEUE` of the
 //! longest).
 
+use super::probe::{Mark, Probe};
 use super::{Channel, Link, Reassembler};
 use core::future::Future;
 use core::task::Context;
@@ -87,6 +92,11 @@ struct Budget {
 /// `MAX_RECEIVE_LEN`).
 pub struct FragmentGuard<'d, D, const BUF: usize> {
     inner: D,
+    parts: Parts<'d, BUF>,
+}
+
+/// What the guard adds to the driver; a received frame's token borrows it.
+struct Parts<'d, const BUF: usize> {
     reassembler: &'d mut Reassembler<BUF>,
     link: &'d Link,
     channel: Channel,
@@ -106,46 +116,59 @@ impl<'d, D, const BUF: usize> FragmentGuard<'d, D, BUF> {
     ) -> Self {
         FragmentGuard {
             inner,
-            reassembler,
-            link,
-            channel,
-            budget: Budget::default(),
+            parts: Parts {
+                reassembler,
+                link,
+                channel,
+                budget: Budget::default(),
+            },
         }
     }
 }
 
 /// A received frame's token: the reassembler decides what the stack sees
 /// when the stack consumes it.
-pub struct GuardRx<'a, T, const BUF: usize> {
+pub struct GuardRx<'a, 'd, T, const BUF: usize> {
     inner: T,
-    reassembler: &'a mut Reassembler<BUF>,
-    link: &'a Link,
-    channel: Channel,
-    budget: &'a mut Budget,
+    parts: &'a mut Parts<'d, BUF>,
+    probe: Probe,
 }
 
 impl<T: embassy_net_driver::RxToken, const BUF: usize> embassy_net_driver::RxToken
-    for GuardRx<'_, T, BUF>
+    for GuardRx<'_, '_, T, BUF>
 {
     fn consume<R, F: FnOnce(&mut [u8]) -> R>(self, f: F) -> R {
         let GuardRx {
             inner,
+            parts,
+            mut probe,
+        } = self;
+        probe.mark(Mark::Taken);
+        let Parts {
             reassembler,
             link,
             channel,
             budget,
-        } = self;
+        } = parts;
+        let channel = *channel;
         let controller = link.controller();
         let now = now_us();
         let mut tcp = false;
+        probe.mark(Mark::Calling);
         let r = inner.consume(|frame| {
+            probe.mark(Mark::Opened);
             // A segment for the cycle: from the controller as the cycle
             // knows it, so that data for M10's standby connection (a new
             // port) holds nothing: the cycle does not read it yet.
             tcp = channel_data(frame, channel.port, Side::To)
                 .is_some_and(|(ip, port)| controller.sent(ip, port));
-            reassembler.pass(frame, now, channel, controller, f)
+            let r = reassembler.pass(frame, now, channel, controller, |frame| {
+                probe.smoltcp(frame, f)
+            });
+            probe.mark(Mark::Closed);
+            r
         });
+        probe.mark(Mark::After);
         if reassembler.take_changed() {
             link.publish(reassembler.stats());
         }
@@ -155,13 +178,14 @@ impl<T: embassy_net_driver::RxToken, const BUF: usize> embassy_net_driver::RxTok
         if to_channel || tcp {
             link.message_in(now);
         }
+        probe.end();
         r
     }
 }
 
-impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
+impl<'d, D: Driver, const BUF: usize> Driver for FragmentGuard<'d, D, BUF> {
     type RxToken<'a>
-        = GuardRx<'a, D::RxToken<'a>, BUF>
+        = GuardRx<'a, 'd, D::RxToken<'a>, BUF>
     where
         Self: 'a;
     type TxToken<'a>
@@ -170,13 +194,8 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
         Self: 'a;
 
     fn receive(&mut self, cx: &mut Context) -> Option<(Self::RxToken<'_>, Self::TxToken<'_>)> {
-        let FragmentGuard {
-            inner,
-            reassembler,
-            link,
-            channel,
-            budget,
-        } = self;
+        let FragmentGuard { inner, parts } = self;
+        let link = parts.link;
         // The cycle works on a robot message, or its reply waits to leave:
         // nothing comes in meanwhile (`Link::may_receive`; the cycle wakes
         // us, the egress that sends the reply ends the wait).
@@ -189,43 +208,41 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
         }
         // Stale sets go at every poll, not only when the next fragment
         // comes, so the counters show them.
-        reassembler.expire(now);
-        if reassembler.take_changed() {
-            link.publish(reassembler.stats());
+        parts.reassembler.expire(now);
+        if parts.reassembler.take_changed() {
+            link.publish(parts.reassembler.stats());
         }
+        let budget = &mut parts.budget;
         if budget.to_channel || budget.frames >= FRAMES_PER_POLL {
             // This poll had its share: let the cycle run, then come back.
             *budget = Budget::default();
             cx.waker().wake_by_ref();
             return None;
         }
+        let mut probe = Probe::start();
         let Some((rx, tx)) = inner.receive(cx) else {
             *budget = Budget::default();
             return None;
         };
+        probe.mark(Mark::Given);
+        let port = parts.channel.port;
         Some((
             GuardRx {
                 inner: rx,
-                reassembler,
-                link,
-                channel: *channel,
-                budget,
+                parts,
+                probe,
             },
             GuardTx {
                 inner: tx,
                 link,
-                port: channel.port,
+                port,
             },
         ))
     }
 
     fn transmit(&mut self, cx: &mut Context) -> Option<Self::TxToken<'_>> {
-        let FragmentGuard {
-            inner,
-            link,
-            channel,
-            ..
-        } = self;
+        let FragmentGuard { inner, parts } = self;
+        let link = parts.link;
         // The cycle works on a robot message: nothing leaves in front of
         // its reply (`Link::may_transmit`; the cycle wakes us).
         if link.is_holding() && !link.may_transmit(now_us(), cx.waker()) {
@@ -235,7 +252,7 @@ impl<D: Driver, const BUF: usize> Driver for FragmentGuard<'_, D, BUF> {
         Some(GuardTx {
             inner: inner.transmit(cx)?,
             link,
-            port: channel.port,
+            port: parts.channel.port,
         })
     }
 
@@ -263,13 +280,17 @@ pub struct GuardTx<'a, T> {
 impl<T: embassy_net_driver::TxToken> embassy_net_driver::TxToken for GuardTx<'_, T> {
     fn consume<R, F: FnOnce(&mut [u8]) -> R>(self, len: usize, f: F) -> R {
         let GuardTx { inner, link, port } = self;
-        inner.consume(len, |frame| {
+        let mut reply = false;
+        let r = inner.consume(len, |frame| {
             let r = f(frame);
-            if channel_data(frame, port, Side::From).is_some() {
+            reply = channel_data(frame, port, Side::From).is_some();
+            if reply {
                 link.reply_out(now_us());
             }
             r
-        })
+        });
+        Probe::sent(reply);
+        r
     }
 }
 

@@ -49,6 +49,8 @@ pub use reassembly::{Reassembler, Verdict};
 
 #[cfg(feature = "net")]
 pub mod guard;
+#[cfg(feature = "net")]
+pub(crate) mod probe;
 
 pub use crate::engine::FragmentStats;
 use crate::engine::{Endpoint, Pinned};

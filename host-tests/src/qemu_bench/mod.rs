@@ -11,32 +11,13 @@ pub use flood::{drain_replies, flood, flood_datagram, flood_datagrams, Flooded, 
 
 use serde::{Deserialize, Serialize};
 
-/// A `bench …` line of the firmware's log.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Record {
-    pub bytes: u32,
-    pub answered: bool,
-    pub compute: u32,
-    pub full: u32,
-}
+/// A `bench …` line of the firmware's log: the firmware's own definition
+/// and reader.
+pub use rri_firmware::bench_line::Record;
 
 fn field<'a>(line: &'a str, key: &str) -> Option<&'a str> {
     let i = line.find(&format!(" {key}="))? + key.len() + 2;
     line[i..].split_whitespace().next()
-}
-
-impl Record {
-    pub fn parse(line: &str) -> Option<Record> {
-        if !line.contains("] bench ") {
-            return None;
-        }
-        Some(Record {
-            bytes: field(line, "bytes")?.parse().ok()?,
-            answered: field(line, "answered")?.parse().ok()?,
-            compute: field(line, "compute")?.parse().ok()?,
-            full: field(line, "full")?.parse().ok()?,
-        })
-    }
 }
 
 /// A `codec …` line: per-message counts of ours, the tokenizer alone and the
@@ -193,19 +174,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn log_lines_parse() {
-        let r = Record::parse(
-            "[    1.000 INFO ] bench bytes=698 answered=true compute=11420 full=13000 lost=0",
-        );
-        assert_eq!(
-            r,
-            Some(Record {
-                bytes: 698,
-                answered: true,
-                compute: 11420,
-                full: 13000
-            })
-        );
+    fn codec_lines_parse() {
         assert_eq!(
             parse_codec("[ 0.1 INFO ] codec manual bytes=648 ours=11 tokenizer=7 baseline=21"),
             Some(("manual".into(), 648, 11, 7, 21))

@@ -3,6 +3,7 @@
 //! `target/qemu-bench/` ([`write_files`]) and gated on the baseline
 //! ([`gate`]).
 
+use crate::layers::{self, Split};
 use crate::run::MIN_STACK_MARGIN_PERCENT;
 use crate::scraped::ScrapeFigures;
 
@@ -50,6 +51,11 @@ struct Figures {
     /// worst of them.
     hostile: Vec<u64>,
     hostile_max: u64,
+    /// Each hostile input's worst row, per layer.
+    hostile_split: Vec<Split>,
+    /// Answered rows whose per-layer counts cannot be right
+    /// ([`layers::misfits`]).
+    misfits: usize,
     /// The in-guest codec's cost on the manual's message.
     baseline_median: u64,
     /// Stack: start-up, running, budget (bytes) and the margin left (%).
@@ -59,6 +65,8 @@ struct Figures {
     /// realistic inputs first, and its max over the realistic ones.
     floor: Vec<(String, usize, u64, u64)>,
     floor_max: u64,
+    /// The floor's longest full span per input, per layer.
+    floor_split: Vec<Split>,
     /// The scrape run: the same figures while the diagnostics were read.
     scraped: Option<ScrapeFigures>,
 }
@@ -108,6 +116,24 @@ impl Figures {
             + in_firmware;
         let hostile: Vec<u64> = m.hostile.iter().map(|(_, r)| hostile_cost(r)).collect();
         let hostile_max = hostile.iter().copied().max().unwrap_or(0);
+        let split = |rows: &[Record], cost: &dyn Fn(&Record) -> u32| {
+            layers::worst(rows, cost).map(Split::of).unwrap_or_default()
+        };
+        let hostile_split = m
+            .hostile
+            .iter()
+            .map(|(_, rows)| split(rows, &|r| hostile_counts(r)))
+            .collect();
+        let floor_split = floor
+            .iter()
+            .map(|(_, rows)| split(rows, &|r| r.full))
+            .collect();
+        let inputs = [&m.realistic, &m.hostile, floor].into_iter().flatten();
+        let misfits = layers::misfits(
+            m.sim_records
+                .iter()
+                .chain(inputs.flat_map(|(_, rows)| rows.iter())),
+        );
         let baseline_median = m
             .codec
             .iter()
@@ -141,6 +167,9 @@ impl Figures {
             missed,
             hostile,
             hostile_max,
+            hostile_split,
+            misfits,
+            floor_split,
             baseline_median,
             stack: m.stack,
             stack_margin,
@@ -165,15 +194,18 @@ impl Figures {
 /// it was answered, its compute path where it was rejected.
 pub(crate) fn hostile_cost(rows: &[Record]) -> u64 {
     rows.iter()
-        .map(|r| {
-            instructions(if r.answered {
-                r.full.max(r.compute)
-            } else {
-                r.compute
-            })
-        })
+        .map(|r| instructions(hostile_counts(r)))
         .max()
         .unwrap_or(0)
+}
+
+/// One row's hostile cost, in counts.
+fn hostile_counts(r: &Record) -> u32 {
+    if r.answered {
+        r.full.max(r.compute)
+    } else {
+        r.compute
+    }
 }
 
 /// Every figure, on stdout.
@@ -233,6 +265,17 @@ fn print(args: &Args, m: &Measured, fl: &Flooded, x: &Figures) {
     for (name, bytes, median, max) in &x.floor {
         println!("  {name:<32} {bytes:>5} B  floor median {median:>7}  max {max:>7}");
     }
+    let named = |splits: &[Split], names: &mut dyn Iterator<Item = &str>| -> Vec<(String, Split)> {
+        names
+            .map(String::from)
+            .zip(splits.iter().copied())
+            .collect()
+    };
+    let floor_rows = named(&x.floor_split, &mut x.floor.iter().map(|f| f.0.as_str()));
+    layers::print(
+        "the floor per layer, its longest full span per input: the completing frame's driver, fragment guard and smoltcp shares, the reply sent (compute), the rest (executor, socket copy, reply out); before the span: that frame read from the NIC, the earlier fragments",
+        &floor_rows,
+    );
     println!(
         "  realistic full path: max {} over a floor of {} (the cycle's own work {}, {:.2}× the floor)",
         x.full.max,
@@ -272,6 +315,14 @@ fn print(args: &Args, m: &Measured, fl: &Flooded, x: &Figures) {
         x.hostile_max,
         x.hostile_max as f64 / 216.0
     );
+    let hostile_rows = named(
+        &x.hostile_split,
+        &mut m.hostile.iter().map(|(i, _)| i.name.as_str()),
+    );
+    layers::print(
+        "the hostile inputs per layer, each one's worst row (a rejected input has no full span)",
+        &hostile_rows,
+    );
     if let Some(sc) = &x.scraped {
         sc.print(
             (x.compute.max, x.compute.median),
@@ -296,8 +347,8 @@ fn write_files(m: &Measured, fl: &Flooded, x: &Figures) -> Result<(), String> {
     let hostile_json: Vec<_> = m
         .hostile
         .iter()
-        .zip(&x.hostile)
-        .map(|((input, _), worst)| json!({"name": input.name, "bytes": input.len(), "answered": input.accepted, "worst": worst, "per_byte": *worst as f64 / input.len() as f64}))
+        .zip(x.hostile.iter().zip(&x.hostile_split))
+        .map(|((input, _), (worst, split))| json!({"name": input.name, "bytes": input.len(), "answered": input.accepted, "worst": worst, "per_byte": *worst as f64 / input.len() as f64, "layers": split.json()}))
         .collect();
     let (stack_boot, stack_running, stack_size) = x.stack;
     let summary_json = json!({
@@ -311,7 +362,7 @@ fn write_files(m: &Measured, fl: &Flooded, x: &Figures) -> Result<(), String> {
         "full": x.full,
         "hostile_max": x.hostile_max,
         "hostile": hostile_json,
-        "floor": x.floor.iter().map(|(n, b, med, max)| json!({"name": n, "bytes": b, "median": med, "max": max})).collect::<Vec<_>>(),
+        "floor": x.floor.iter().zip(&x.floor_split).map(|((n, b, med, max), split)| json!({"name": n, "bytes": b, "median": med, "max": max, "layers": split.json()})).collect::<Vec<_>>(),
         "floor_realistic_max": x.floor_max,
         "scraped": x.scraped.as_ref().map(|sc| json!({"compute": sc.compute, "full": sc.full,
             "hostile_max": sc.hostile_max, "full_over_5_percent": sc.full_over, "missed": sc.missed, "scraper": sc.scraper})),
@@ -366,6 +417,13 @@ fn gate(args: &Args, x: &Figures) -> Result<bool, String> {
     let mut ok = true;
     if x.missed > 0 {
         println!("FAIL: {} replies missed, late or wrong", x.missed);
+        ok = false;
+    }
+    if x.misfits > 0 {
+        println!(
+            "FAIL: {} answered messages' per-layer counts saw no frame or add up past their full span",
+            x.misfits
+        );
         ok = false;
     }
     if x.stack_margin < MIN_STACK_MARGIN_PERCENT {
