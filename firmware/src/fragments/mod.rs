@@ -43,6 +43,7 @@
 //! Every fragment dropped and every set given up is counted
 //! ([`FragmentStats`], in the engine's `Stats` and the counter line).
 
+mod coverage;
 mod frame;
 mod reassembly;
 pub use reassembly::{Reassembler, Verdict};

@@ -3,6 +3,7 @@
 //! units, overlaps), work bounded by the frame's length, buffers fixed at
 //! build time.
 
+use super::coverage::{self, Coverage};
 use super::frame::{
     be16, checksum, classify, put16, udp_checksum_ok, udp_ports, Fragment, Frame, BLOCK, ETHERNET,
     IPV4, UDP,
@@ -12,9 +13,8 @@ use super::{
     UDP_HEADER,
 };
 
-const MAP_WORDS: usize = 16;
 /// Blocks a buffer's coverage map records.
-pub(super) const MAP_BLOCKS: usize = MAP_WORDS * 64;
+pub(super) const MAP_BLOCKS: usize = coverage::BLOCKS;
 
 /// What [`Reassembler::accept`] made of a frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -55,7 +55,7 @@ struct Slot<const BUF: usize> {
     end: usize,
     /// Blocks received, and which.
     blocks: usize,
-    map: [u64; MAP_WORDS],
+    map: Coverage,
     fragments: u16,
     /// Ethernet header, IPv4 header (20 bytes), IP payload.
     buf: [u8; BUF],
@@ -72,7 +72,7 @@ impl<const BUF: usize> Slot<BUF> {
         total: 0,
         end: 0,
         blocks: 0,
-        map: [0; MAP_WORDS],
+        map: Coverage::EMPTY,
         fragments: 0,
         buf: [0; BUF],
     };
@@ -87,7 +87,7 @@ impl<const BUF: usize> Slot<BUF> {
         self.total = 0;
         self.end = 0;
         self.blocks = 0;
-        self.map = [0; MAP_WORDS];
+        self.map = Coverage::EMPTY;
         self.fragments = 0;
     }
 
@@ -103,14 +103,9 @@ impl<const BUF: usize> Slot<BUF> {
     fn add(&mut self, f: &Fragment<'_>, frame: &[u8], now_us: u64) -> Add {
         let end = f.offset + f.payload.len();
         let (first, last) = (f.offset / BLOCK, end.div_ceil(BLOCK));
-        let mut present = 0;
-        for b in first..last {
-            match self.map.get(b / 64) {
-                Some(w) if w & (1 << (b % 64)) == 0 => {}
-                Some(_) => present += 1,
-                None => return Add::Conflict,
-            }
-        }
+        let Some(present) = self.map.held(first, last) else {
+            return Add::Conflict;
+        };
         if present > 0 {
             return if present == last - first && self.same(f, end) {
                 Add::Duplicate
@@ -132,11 +127,7 @@ impl<const BUF: usize> Slot<BUF> {
             return Add::Conflict;
         };
         dst.copy_from_slice(f.payload);
-        for b in first..last {
-            if let Some(w) = self.map.get_mut(b / 64) {
-                *w |= 1 << (b % 64);
-            }
-        }
+        self.map.mark(first, last);
         self.blocks += last - first;
         self.end = self.end.max(end);
         // The headers of the first fragment to come, then of the first
