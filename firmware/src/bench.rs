@@ -326,3 +326,40 @@ pub fn compare_codecs(message: &[u8], rounds: u32, counter: fn() -> u32) -> Comp
         baseline,
     }
 }
+
+/// Bytes [`copy_cost`] copies: the longest robot message.
+pub const COPY_LEN: usize = 3557;
+
+/// Two buffers on 4-byte boundaries, a whole number of words long, so an
+/// offset into either is its alignment.
+#[repr(C, align(4))]
+struct CopyBuffers([u8; COPY_LEN + 11], [u8; COPY_LEN + 11]);
+
+static COPY_BUFFERS: Mutex<core::cell::RefCell<CopyBuffers>> = Mutex::new(
+    core::cell::RefCell::new(CopyBuffers([0; COPY_LEN + 11], [0; COPY_LEN + 11])),
+);
+
+/// Counts of copying [`COPY_LEN`] bytes (`copy_from_slice`: the `memcpy`
+/// every layer uses) from `from` bytes past a 4-byte boundary to `to`
+/// bytes past one, per copy: `memcpy`'s cost depends on whether the two
+/// ends are aligned alike. Start-up only: interrupts are masked
+/// throughout.
+pub fn copy_cost(from: usize, to: usize, counter: fn() -> u32) -> u32 {
+    use core::hint::black_box;
+    const ROUNDS: u32 = 8;
+    critical_section::with(|cs| {
+        let mut buffers = COPY_BUFFERS.borrow_ref_mut(cs);
+        let CopyBuffers(src, dst) = &mut *buffers;
+        let (Some(src), Some(dst)) = (
+            src.get(from % 4..from % 4 + COPY_LEN),
+            dst.get_mut(to % 4..to % 4 + COPY_LEN),
+        ) else {
+            return 0;
+        };
+        let start = counter();
+        for _ in 0..ROUNDS {
+            black_box(&mut *dst).copy_from_slice(black_box(src));
+        }
+        counter().wrapping_sub(start) / ROUNDS
+    })
+}

@@ -79,11 +79,39 @@ impl<R: RobotSet, D: DeviceSet> Monitor<R, D> for () {}
 /// flash. (The sockets' packet metadata, whose empty value is not all
 /// zeros, lives in the cycle task itself: in a static beside the bytes it
 /// would pull the whole 25 KB into `.data`, i.e. into flash.)
+///
+/// Each starts where a UDP payload sits in a frame ([`AsInFrame`]).
 pub struct UdpBuffers<const RX: usize, const TX: usize> {
-    rx: [[u8; RX]; QUEUE],
-    tx: [[u8; TX]; QUEUE],
-    datagram: [u8; RX],
-    reply: [u8; TX],
+    rx: AsInFrame<[[u8; RX]; QUEUE]>,
+    tx: AsInFrame<[[u8; TX]; QUEUE]>,
+    datagram: AsInFrame<[u8; RX]>,
+    reply: AsInFrame<[u8; TX]>,
+}
+
+/// `T` two bytes past a 4-byte boundary: where a UDP payload sits in an
+/// Ethernet frame that starts on one (42 bytes in; every driver's frame
+/// buffer here does, and so do the fragment guard's). A datagram's payload
+/// is copied from its frame into the socket's ring (smoltcp starts each
+/// datagram that comes to an empty ring at the ring's start), from there
+/// into the cycle's buffer, and the reply the other way; `memcpy` with
+/// both ends aligned alike costs a third of a copy whose ends are not
+/// (Thumb-2: 3,855 against 12,540 instructions for 3,557 bytes, `cargo
+/// qemu-bench`).
+#[repr(C, align(4))]
+pub struct AsInFrame<T> {
+    lead: [u8; 2],
+    /// The bytes.
+    pub bytes: T,
+}
+
+impl<T> AsInFrame<T> {
+    /// `bytes`, placed as in a frame.
+    pub const fn new(bytes: T) -> Self {
+        AsInFrame {
+            lead: [0; 2],
+            bytes,
+        }
+    }
 }
 
 impl<const RX: usize, const TX: usize> Default for UdpBuffers<RX, TX> {
@@ -110,10 +138,10 @@ impl<const RX: usize, const TX: usize> UdpBuffers<RX, TX> {
             );
         }
         UdpBuffers {
-            rx: [[0; RX]; QUEUE],
-            tx: [[0; TX]; QUEUE],
-            datagram: [0; RX],
-            reply: [0; TX],
+            rx: AsInFrame::new([[0; RX]; QUEUE]),
+            tx: AsInFrame::new([[0; TX]; QUEUE]),
+            datagram: AsInFrame::new([0; RX]),
+            reply: AsInFrame::new([0; TX]),
         }
     }
 }
@@ -209,6 +237,8 @@ where
             datagram,
             reply,
         } = buffers;
+        let (rx, tx) = (&mut rx.bytes, &mut tx.bytes);
+        let (datagram, reply) = (&mut datagram.bytes, &mut reply.bytes);
         let mut rx_meta = [PacketMetadata::EMPTY; RX_PACKETS];
         let mut tx_meta = [PacketMetadata::EMPTY; QUEUE];
         let mut socket = UdpSocket::new(

@@ -140,6 +140,13 @@ fn main() -> ! {
             c.baseline
         );
     }
+    #[cfg(feature = "bench")]
+    defmt::info!(
+        "copy bytes={=usize} alike={=u32} unlike={=u32}",
+        rri_firmware::bench::COPY_LEN,
+        rri_firmware::bench::copy_cost(2, 2, board::cycle_counter),
+        rri_firmware::bench::copy_cost(2, 0, board::cycle_counter)
+    );
     hal_board::fault::log_reset(&b.reset);
     #[cfg(rri_http)]
     diagnostics::started(b.reset);
@@ -320,17 +327,30 @@ async fn cycle(stack: Stack<'static>, _reader: SampleReader<'static, Samples>) -
     use rri_firmware::properties::DeviceSet;
     const RX: usize = layout::MAX_RECEIVE_LEN;
     const TX: usize = layout::MAX_SEND_LEN;
-    static BYTES: ConstStaticCell<([u8; RX * net::QUEUE], [u8; TX * net::QUEUE], [u8; RX])> =
-        ConstStaticCell::new(([0; RX * net::QUEUE], [0; TX * net::QUEUE], [0; RX]));
+    use net::AsInFrame;
+    // Placed as the cycle's `net::UdpBuffers` are, so the floor's copies
+    // cost what the cycle's do.
+    type Bytes = (
+        AsInFrame<[u8; RX * net::QUEUE]>,
+        AsInFrame<[u8; TX * net::QUEUE]>,
+        AsInFrame<[u8; RX]>,
+    );
+    static BYTES: ConstStaticCell<Bytes> = ConstStaticCell::new((
+        AsInFrame::new([0; RX * net::QUEUE]),
+        AsInFrame::new([0; TX * net::QUEUE]),
+        AsInFrame::new([0; RX]),
+    ));
     let (rx, tx, datagram) = BYTES.take();
-    let mut reply = [0u8; TX];
+    let (rx, tx, datagram) = (&mut rx.bytes, &mut tx.bytes, &mut datagram.bytes);
+    let mut reply = AsInFrame::new([0u8; TX]);
+    let reply = &mut reply.bytes;
     let device = DeviceProperties::default();
     let Ok(fixed) = device.encode(
         layout::REPLY.index(),
         0,
         Default::default(),
         layout::FORMAT,
-        &mut reply,
+        reply,
     ) else {
         defmt::panic!("the fixed reply does not fit MAX_SEND_LEN")
     };

@@ -58,8 +58,18 @@ struct Slot<const BUF: usize> {
     map: Coverage,
     fragments: u16,
     /// Ethernet header, IPv4 header (20 bytes), IP payload.
-    buf: [u8; BUF],
+    buf: Aligned<BUF>,
 }
+
+/// A slot's bytes, on a 4-byte boundary as every driver's frame buffer
+/// is, so each fragment's payload lands two bytes past a boundary as it
+/// sat in its frame, and so does the datagram's UDP payload, where the
+/// socket buffers that smoltcp copies it into start (`net::AsInFrame`).
+/// `memcpy` with both ends aligned alike costs a third of a copy whose
+/// ends are not (Thumb-2: 3,855 against 12,540 instructions for 3,557
+/// bytes, `cargo qemu-bench`).
+#[repr(C, align(4))]
+struct Aligned<const N: usize>([u8; N]);
 
 impl<const BUF: usize> Slot<BUF> {
     const FREE: Self = Slot {
@@ -74,8 +84,17 @@ impl<const BUF: usize> Slot<BUF> {
         blocks: 0,
         map: Coverage::EMPTY,
         fragments: 0,
-        buf: [0; BUF],
+        buf: Aligned([0; BUF]),
     };
+
+    /// The frame's bytes.
+    fn frame(&self) -> &[u8] {
+        &self.buf.0
+    }
+
+    fn frame_mut(&mut self) -> &mut [u8] {
+        &mut self.buf.0
+    }
 
     fn start(&mut self, src: [u8; 4], ident: u16, rank: Rank, now_us: u64) {
         self.busy = true;
@@ -123,7 +142,7 @@ impl<const BUF: usize> Slot<BUF> {
             }
             self.total = end;
         }
-        let Some(dst) = self.buf.get_mut(HEADERS + f.offset..HEADERS + end) else {
+        let Some(dst) = self.frame_mut().get_mut(HEADERS + f.offset..HEADERS + end) else {
             return Add::Conflict;
         };
         dst.copy_from_slice(f.payload);
@@ -133,7 +152,9 @@ impl<const BUF: usize> Slot<BUF> {
         // The headers of the first fragment to come, then of the first
         // fragment itself: the addresses are the same in every one.
         if self.fragments == 0 || f.offset == 0 {
-            if let (Some(to), Some(from)) = (self.buf.get_mut(..HEADERS), frame.get(..HEADERS)) {
+            if let (Some(to), Some(from)) =
+                (self.frame_mut().get_mut(..HEADERS), frame.get(..HEADERS))
+            {
                 to.copy_from_slice(from);
             }
         }
@@ -153,7 +174,7 @@ impl<const BUF: usize> Slot<BUF> {
         };
         same_end
             && self
-                .buf
+                .frame()
                 .get(HEADERS + f.offset..HEADERS + end)
                 .is_some_and(|held| held == f.payload)
     }
@@ -166,7 +187,7 @@ impl<const BUF: usize> Slot<BUF> {
     /// fragment, its length, a fresh checksum); its length with headers.
     fn finish(&mut self) -> usize {
         let len = IPV4 + self.total;
-        if let Some(h) = self.buf.get_mut(ETHERNET..HEADERS) {
+        if let Some(h) = self.frame_mut().get_mut(ETHERNET..HEADERS) {
             if let Some(v) = h.get_mut(0) {
                 *v = 0x45;
             }
@@ -188,11 +209,11 @@ impl<const BUF: usize> Slot<BUF> {
     /// guard's check costs the cycle nothing over the stack's own.
     fn udp_checked(&mut self) -> bool {
         let ok = self
-            .buf
+            .frame()
             .get(ETHERNET..HEADERS + self.total)
             .is_some_and(udp_checksum_ok);
         if ok {
-            put16(&mut self.buf, HEADERS + 6, 0);
+            put16(self.frame_mut(), HEADERS + 6, 0);
         }
         ok
     }
@@ -469,7 +490,11 @@ impl<const BUF: usize> Reassembler<BUF> {
         match self.accept(frame, now_us, channel, controller) {
             Verdict::Pass => f(frame),
             Verdict::Complete { slot, len } => {
-                match self.slots.get_mut(slot).and_then(|s| s.buf.get_mut(..len)) {
+                match self
+                    .slots
+                    .get_mut(slot)
+                    .and_then(|s| s.frame_mut().get_mut(..len))
+                {
                     Some(datagram) => f(datagram),
                     None => f(&mut []),
                 }
@@ -481,6 +506,6 @@ impl<const BUF: usize> Reassembler<BUF> {
     /// The datagram a [`Verdict::Complete`] named (for callers of
     /// [`Reassembler::accept`]); valid until the next frame.
     pub fn datagram(&self, slot: usize, len: usize) -> Option<&[u8]> {
-        self.slots.get(slot)?.buf.get(..len)
+        self.slots.get(slot)?.frame().get(..len)
     }
 }

@@ -94,6 +94,13 @@ pub(super) fn feed(r: &mut R, frames: &[Vec<u8>], now: u64, ctl: Controller) -> 
             assert_eq!(&d[20..22], &[0, 0]);
             assert_eq!(checksum(&d[14..34]), 0);
             assert_eq!(&d[30..34], &DEVICE);
+            // The frame on a 4-byte boundary as a driver's is: the UDP
+            // payload two bytes past one, as in the socket buffers smoltcp
+            // copies it into (the fast copy: both ends aligned alike).
+            assert_eq!(
+                (d.as_ptr() as usize % 4, d[42..].as_ptr() as usize % 4),
+                (0, 2)
+            );
             out.push(d[34..].to_vec());
         }
     }

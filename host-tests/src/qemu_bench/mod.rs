@@ -34,6 +34,17 @@ pub fn parse_codec(line: &str) -> Option<(String, u32, u32, u32, u32)> {
     ))
 }
 
+/// A `copy …` line: the bytes `memcpy` copied, and its counts with the
+/// two ends aligned alike and unlike.
+pub fn parse_copy(line: &str) -> Option<(u32, u32, u32)> {
+    line.find("] copy ")?;
+    Some((
+        field(line, "bytes")?.parse().ok()?,
+        field(line, "alike")?.parse().ok()?,
+        field(line, "unlike")?.parse().ok()?,
+    ))
+}
+
 /// Under this much stack margin the bench (and `cargo hil`) fails.
 pub const MIN_STACK_MARGIN_PERCENT: u64 = 25;
 
@@ -179,6 +190,11 @@ mod tests {
             parse_codec("[ 0.1 INFO ] codec manual bytes=648 ours=11 tokenizer=7 baseline=21"),
             Some(("manual".into(), 648, 11, 7, 21))
         );
+        assert_eq!(
+            parse_copy("[ 0.1 INFO ] copy bytes=3557 alike=771 unlike=2511"),
+            Some((3557, 771, 2511))
+        );
+        assert_eq!(parse_copy("[ 0.1 INFO ] codec manual bytes=648"), None);
     }
 
     #[test]

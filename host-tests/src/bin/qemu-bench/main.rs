@@ -103,6 +103,9 @@ struct Measured {
     /// The in-guest codec comparison: (message, bytes, ours, xmlparser
     /// alone, naive baseline), in counts.
     codec: Vec<(String, u32, u32, u32, u32)>,
+    /// `memcpy` at boot: (bytes, counts with the ends aligned alike,
+    /// unlike).
+    copy: Option<(u32, u32, u32)>,
     /// The lock-step simulator run.
     summary: Summary,
     /// Its bench records (the first answer, ARP warm-up, left out).
@@ -222,6 +225,7 @@ fn counted(
         .iter()
         .filter_map(|l| qb::parse_codec(l))
         .collect();
+    let copy = board.log().iter().find_map(|l| qb::parse_copy(l));
 
     // 2.–3. The simulator, every message measured, then the corpora; then
     // all of it again while a client scrapes the diagnostics (the scrape
@@ -241,6 +245,7 @@ fn counted(
     let log = finish(board, "during the bench")?;
     Ok(Measured {
         codec,
+        copy,
         summary: quiet.summary,
         sim_records: quiet.sim_records,
         realistic: quiet.realistic,

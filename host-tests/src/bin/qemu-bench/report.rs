@@ -228,6 +228,15 @@ fn print(args: &Args, m: &Measured, fl: &Flooded, x: &Figures) {
             i(ours) as f64 / i(tok).max(1) as f64
         );
     }
+    if let Some((bytes, alike, unlike)) = m.copy {
+        let i = |c: u32| u64::from(c) * INSTRUCTIONS_PER_COUNT;
+        println!(
+            "  memcpy of {bytes} B (every layer's copies): {} instructions with both ends aligned alike, {} unlike ({:.1}×)",
+            i(alike),
+            i(unlike),
+            i(unlike) as f64 / i(alike).max(1) as f64
+        );
+    }
     println!("\n== realistic: simulator ({} cycles, the first one warm-up) + manual, IRC5 capture, maximum values ×{}", m.sim_records.len(), args.repeat);
     let row = |name: &str, s: &Spread| {
         println!(
@@ -368,6 +377,8 @@ fn write_files(m: &Measured, fl: &Flooded, x: &Figures) -> Result<(), String> {
             "hostile_max": sc.hostile_max, "full_over_5_percent": sc.full_over, "missed": sc.missed, "scraper": sc.scraper})),
         "stack": {"boot": stack_boot, "running": stack_running, "budget": stack_size, "margin_percent": x.stack_margin},
         "baseline_compute_median": x.baseline_median,
+        "memcpy": m.copy.map(|(bytes, alike, unlike)| json!({"bytes": bytes,
+            "alike": u64::from(alike) * INSTRUCTIONS_PER_COUNT, "unlike": u64::from(unlike) * INSTRUCTIONS_PER_COUNT})),
         "codec": m.codec.iter().map(|(n, b, o, t, base)| json!({"message": n, "bytes": b,
             "ours": u64::from(*o) * INSTRUCTIONS_PER_COUNT, "tokenizer": u64::from(*t) * INSTRUCTIONS_PER_COUNT,
             "baseline": u64::from(*base) * INSTRUCTIONS_PER_COUNT})).collect::<Vec<_>>(),
