@@ -5,7 +5,7 @@
 //! chip, and the host tests run this very code over an in-memory Ethernet.
 
 use crate::engine::{Application, Clock, Endpoint, Engine, Instant, Outcome};
-use crate::fragments::{Controller, Link};
+use crate::fragments::Link;
 use crate::properties::{DeviceSet, RobotSet};
 use crate::tcp::StallGuard;
 use embassy_futures::select::{select, Either};
@@ -201,14 +201,7 @@ pub struct Cycle<'c, R: RobotSet, D: DeviceSet, A, C, M> {
     pub link: &'c Link,
 }
 
-/// After each turn: the guard learns who the controller is now, the
-/// engine's counters take the guard's.
-fn exchange<R: RobotSet, D: DeviceSet>(link: &Link, engine: &mut Engine<R, D>) {
-    link.set_controller(Controller::of(engine.peer(), engine.config().controller));
-    engine.set_fragment_stats(link.stats());
-}
-
-impl<R, D, A, C, M> Cycle<'_, R, D, A, C, M>
+impl<'c, R, D, A, C, M> Cycle<'c, R, D, A, C, M>
 where
     R: RobotSet,
     D: DeviceSet,
@@ -216,12 +209,8 @@ where
     C: Clock,
     M: Monitor<R, D>,
 {
-    /// Runs the UDP cycle forever: receive → engine → reply, and the
-    /// engine's time-driven work every [`POLL_INTERVAL`].
-    pub async fn udp<const RX: usize, const TX: usize>(
-        self,
-        buffers: &mut UdpBuffers<RX, TX>,
-    ) -> ! {
+    /// The stack, the port, and what every turn goes through.
+    fn split(self) -> (Stack<'c>, u16, Turn<'c, R, D, A, C, M>) {
         let Cycle {
             stack,
             port,
@@ -231,6 +220,16 @@ where
             monitor,
             link,
         } = self;
+        (stack, port, Turn::new(engine, app, clock, monitor, link))
+    }
+
+    /// Runs the UDP cycle forever: receive → engine → reply, and the
+    /// engine's time-driven work every [`POLL_INTERVAL`].
+    pub async fn udp<const RX: usize, const TX: usize>(
+        self,
+        buffers: &mut UdpBuffers<RX, TX>,
+    ) -> ! {
+        let (stack, port, mut turn) = self.split();
         let UdpBuffers {
             rx,
             tx,
@@ -249,20 +248,20 @@ where
             tx.as_flattened_mut(),
         );
         let bound = socket.bind(port);
-        link.channel_open();
+        turn.link.channel_open();
         if bound.is_err() {
-            engine.init_failed();
+            turn.engine.init_failed();
             // S2: ERROR 112600 for good; keep the engine's clock-driven work
             // alive so the state stays readable.
             loop {
                 Timer::after(POLL_INTERVAL).await;
             }
         }
-        engine.listening();
+        turn.engine.listening();
         loop {
             match select(socket.recv_from(datagram), Timer::after(POLL_INTERVAL)).await {
                 Either::First(Ok((len, meta))) => {
-                    let received = clock.now();
+                    let received = turn.now();
                     let Some(from) = endpoint(meta.endpoint) else {
                         continue;
                     };
@@ -270,31 +269,24 @@ where
                     // beyond it (never returned) is counted as a datagram
                     // too long for the buffer, not handed on empty or cut.
                     let Some(bytes) = datagram.get(..len) else {
-                        engine.datagram_too_long();
+                        turn.engine.datagram_too_long();
                         continue;
                     };
-                    let before = monitor.count();
-                    let outcome = engine.on_message(app, clock, from, bytes, received, reply);
-                    let after = monitor.count();
-                    // Before the send, which may wait for room that only
-                    // the runner's egress (held until now) makes.
-                    link.turn_done(matches!(outcome, Outcome::Reply { .. }));
-                    if let Outcome::Reply { to, len } = outcome {
-                        send_datagram(&socket, engine, reply, to, len).await;
+                    let handled = turn.message(from, bytes, received, reply);
+                    if let Outcome::Reply { to, len } = handled.outcome {
+                        send_datagram(&socket, turn.engine, reply, to, len).await;
                     }
-                    exchange(link, engine);
-                    monitor.message(engine, bytes, from, &outcome, (before, after));
+                    turn.done(bytes, from, &handled);
                 }
                 Either::First(Err(RecvError::Truncated)) => {
-                    engine.datagram_too_long();
-                    link.turn_done(false);
+                    turn.engine.datagram_too_long();
+                    turn.link.turn_done(false);
                 }
                 Either::Second(()) => {
-                    if let Some((to, len)) = engine.poll(app, clock, reply) {
-                        send_datagram(&socket, engine, reply, to, len).await;
+                    if let Some((to, len)) = turn.poll(reply) {
+                        send_datagram(&socket, turn.engine, reply, to, len).await;
                     }
-                    exchange(link, engine);
-                    monitor.polled(engine);
+                    turn.polled();
                 }
             }
         }
@@ -312,15 +304,7 @@ where
         self,
         buffers: &mut TcpBuffers<SOCK, RX, TX>,
     ) -> ! {
-        let Cycle {
-            stack,
-            port,
-            engine,
-            app,
-            clock,
-            monitor,
-            link,
-        } = self;
+        let (stack, port, mut turn) = self.split();
         let TcpBuffers {
             rx,
             tx,
@@ -340,20 +324,20 @@ where
         // across the sockets' close and listen.
         a.set_nagle_enabled(false);
         b.set_nagle_enabled(false);
-        link.channel_open();
+        turn.link.channel_open();
         let (mut served, mut standby) = (&mut a, &mut b);
         let mut listened = false;
         loop {
             // Both sockets listen; serve whichever connects first.
             if !(listen(served, port) && listen(standby, port)) {
-                engine.init_failed();
+                turn.engine.init_failed();
                 Timer::after(POLL_INTERVAL).await;
                 continue;
             }
             if !listened {
                 // S2: CONNECTED once the device listens, before any controller
                 // connects (after a peer closes it stays CLOSED until the next).
-                engine.listening();
+                turn.engine.listening();
                 listened = true;
             }
             if !connected(served) {
@@ -368,15 +352,16 @@ where
                 served.abort();
                 continue;
             };
-            engine.listening();
+            turn.engine.listening();
             framer.reset();
-            let mut guard = StallGuard::new(engine.config().timeout_ms, clock.now());
-            let write_limit = Duration::from_millis(u64::from(engine.config().timeout_ms.max(1)));
+            let mut guard = StallGuard::new(turn.engine.config().timeout_ms, turn.now());
+            let write_limit =
+                Duration::from_millis(u64::from(turn.engine.config().timeout_ms.max(1)));
             'connection: loop {
                 match select(served.read(chunk), Timer::after(POLL_INTERVAL)).await {
                     Either::First(Ok(0)) | Either::First(Err(_)) => break 'connection,
                     Either::First(Ok(n)) => {
-                        let received = clock.now();
+                        let received = turn.now();
                         let mut completed = false;
                         // `read` filled the first `n` bytes; a count beyond the
                         // chunk (never returned) breaks the connection like a
@@ -386,50 +371,44 @@ where
                         };
                         while !rest.is_empty() {
                             let Some((unused, message)) = feed(framer, rest) else {
-                                engine.framing_error();
-                                link.turn_done(false);
+                                turn.engine.framing_error();
+                                turn.link.turn_done(false);
                                 break 'connection;
                             };
                             rest = unused;
                             let Some(message) = message else { continue };
                             completed = true;
-                            let before = monitor.count();
-                            let outcome =
-                                engine.on_message(app, clock, from, message, received, reply);
-                            let after = monitor.count();
-                            link.turn_done(matches!(outcome, Outcome::Reply { .. }));
-                            if let Outcome::Reply { len, .. } = outcome {
-                                if !send_reply(served, engine, reply, len, write_limit).await {
+                            let handled = turn.message(from, message, received, reply);
+                            if let Outcome::Reply { len, .. } = handled.outcome {
+                                if !send_reply(served, turn.engine, reply, len, write_limit).await {
                                     break 'connection;
                                 }
                             }
-                            exchange(link, engine);
-                            monitor.message(engine, message, from, &outcome, (before, after));
+                            turn.done(message, from, &handled);
                         }
                         if !completed {
                             // Part of a message: nothing to answer yet.
-                            link.turn_done(false);
+                            turn.link.turn_done(false);
                         }
                         guard.received(received, completed, framer.pending());
                     }
                     Either::Second(()) => {
-                        if let Some((_, len)) = engine.poll(app, clock, reply) {
-                            if !send_reply(served, engine, reply, len, write_limit).await {
+                        if let Some((_, len)) = turn.poll(reply) {
+                            if !send_reply(served, turn.engine, reply, len, write_limit).await {
                                 break 'connection;
                             }
                         }
-                        exchange(link, engine);
-                        monitor.polled(engine);
+                        turn.polled();
                     }
                 }
-                if guard.check(clock.now(), connected(standby)).is_some() {
-                    engine.stalled();
+                if guard.check(turn.now(), connected(standby)).is_some() {
+                    turn.engine.stalled();
                     break 'connection;
                 }
             }
             served.abort();
             let _ = served.flush().await;
-            engine.peer_closed();
+            turn.engine.peer_closed();
             // The standby (listening, or already holding the next connection)
             // is served next; this one listens again.
             core::mem::swap(&mut served, &mut standby);
@@ -438,5 +417,7 @@ where
 }
 
 mod tcp_io;
+mod turn;
 pub use tcp_io::TcpBuffers;
 use tcp_io::{connected, feed, listen, send_reply};
+use turn::Turn;
