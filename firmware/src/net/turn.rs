@@ -28,13 +28,8 @@ pub(super) struct Handled {
     counts: (u32, u32),
 }
 
-impl<'c, R, D, A, C, M> Turn<'c, R, D, A, C, M>
-where
-    R: RobotSet,
-    D: DeviceSet,
-    A: Application<R, D>,
-    C: Clock,
-    M: Monitor<R, D>,
+impl<'c, R: RobotSet, D: DeviceSet, A: Application<R, D>, C: Clock, M: Monitor<R, D>>
+    Turn<'c, R, D, A, C, M>
 {
     pub(super) fn new(
         engine: &'c mut Engine<R, D>,

@@ -35,7 +35,7 @@ impl Background {
     /// [`Background::start`] with its diagnostics served on an ephemeral
     /// port of 127.0.0.1 ([`Background::http`]).
     pub fn start_diagnosed(tcp: bool, config: Config) -> io::Result<Background> {
-        Self::start_opts::<
+        Self::start_with::<
             DemoSensor,
             layout::RobotProperties,
             layout::DeviceProperties,
@@ -54,7 +54,7 @@ impl Background {
             layout::RobotProperties,
             layout::DeviceProperties,
             { layout::MAX_RECEIVE_LEN },
-        >(tcp, config, layout::DEVICE_NAME, source)
+        >(tcp, config, layout::DEVICE_NAME, source, false)
     }
 
     /// Starts it for another layout (`host_tests::layouts`): its property
@@ -74,26 +74,13 @@ impl Background {
             config,
             device_name,
             Source::Simulated,
+            false,
         )
     }
 
     /// The general form: sensor `S` on layout `R`, `D` (`RX`: its
-    /// `MAX_RECEIVE_LEN`).
+    /// `MAX_RECEIVE_LEN`), its diagnostics served when `http`.
     pub fn start_with<S, R, D, const RX: usize>(
-        tcp: bool,
-        config: Config,
-        device_name: &'static str,
-        source: Source,
-    ) -> io::Result<Background>
-    where
-        S: Sensor<R, D> + 'static,
-        R: RobotSet + Send + 'static,
-        D: DeviceSet + Send + 'static,
-    {
-        Self::start_opts::<S, R, D, RX>(tcp, config, device_name, source, false)
-    }
-
-    fn start_opts<S, R, D, const RX: usize>(
         tcp: bool,
         config: Config,
         device_name: &'static str,
