@@ -307,7 +307,8 @@ fn m5_reals_read_before_a_late_hand_over_are_the_general_paths() {
     assert!(handed_over::<manual::RobDataMessage>(&refused).is_err());
 }
 
-/// Issue 36, finding 2: a datagram the compiled path hands over after
+/// Issue 36, finding 2 (M1: one root, nothing after it; M2: the fields
+/// seen and tolerated carry over): a datagram the compiled path hands over after
 /// some of a record's fields is walked by the general path from the end
 /// of the last field it read whole (`codec::HandOver`'s mark), not from
 /// the start. `agree` holds `decode`, which resumes, to the general path
@@ -317,7 +318,7 @@ fn m5_reals_read_before_a_late_hand_over_are_the_general_paths() {
 /// CDATA and tags there as tokens the whole document's refuses), and a
 /// hand-over in every field.
 #[test]
-fn a_late_hand_over_resumes_where_the_compiled_path_stopped() {
+fn m1_m2_a_late_hand_over_resumes_where_the_compiled_path_stopped() {
     let over = handed_over::<manual::RobDataMessage>;
     for tail in [
         "x",

@@ -164,7 +164,11 @@ pub struct Scan<'a> {
     hand_over: &'a mut HandOver,
     /// The datagram's length: offsets for the marks.
     len: usize,
-    /// The record's fields read whole so far, one bit each.
+    /// The record's fields read whole so far, one bit each. Also in the
+    /// mark, on purpose: kept here, the bits stay in a register; or-ing
+    /// into the mark's own cost the realistic compute median 245
+    /// Thumb-2 instructions (and folding the root's `Id`/`Ts` into the
+    /// mark, 45 more), measured with `cargo qemu-bench`.
     seen: u64,
 }
 
