@@ -54,7 +54,7 @@ impl Failure {
     pub fn report(&self) -> std::process::ExitCode {
         eprintln!("error: {}", self.reason);
         if self.late_only {
-            eprintln!("every reply was right; only their timing failed (exit status {LATE_ONLY})");
+            eprintln!("every reply the firmware gave was right; only their timing failed, or frames were lost before the firmware (the host's: exit status {LATE_ONLY})");
             std::process::ExitCode::from(LATE_ONLY)
         } else {
             std::process::ExitCode::FAILURE
@@ -356,7 +356,15 @@ pub fn verdict(name: &str, ran: &Ran) -> Result<(), Failure> {
         .into());
     }
     if !ran.http_failures.is_empty() {
-        return Err(ran.http_failures.join("; ").into());
+        // Connections that got nothing at all, in a run whose robot
+        // messages the emulated NIC dropped too, are the host's (exit 3).
+        let host = crate::http_attack::only_silence(&ran.http_failures)
+            && ran.summary.lost > 0
+            && LossSplit::lost_before_firmware(&ran.summary, ran.warm, &ran.log);
+        return Err(Failure {
+            reason: ran.http_failures.join("; "),
+            late_only: host,
+        });
     }
     if ran.http_attacked && ran.summary.lost > 0 {
         // Lost while the catalogue ran: in the firmware, or before it (the
