@@ -19,7 +19,13 @@
 //!    the core's back) is not cacheable: in the DTCM or the window;
 //! 5. the stack region the statics leave in the DTCM is at least
 //!    [`MIN_STACK`]: the statics share the DTCM with the stack, and a
-//!    static that grew would otherwise eat the stack's margin unseen.
+//!    static that grew would otherwise eat the stack's margin unseen;
+//! 6. what cortex-m-rt's reset handler zeroes, `__sbss..__ebss`, is
+//!    `.bss` and nothing else: a section inserted after `.bss` in another
+//!    region moves `__ebss` there, and the handler then zeroes everything
+//!    between (on the H743 through the reserved hole after the DTCM: a
+//!    bus fault before `main`; on the F767 `.uninit`, the stack and the
+//!    rings), and `.uninit` and `_stack_end` lie in the DTCM.
 //!
 //! Together: no byte the core writes is ever in the data cache, so the
 //! cache needs no maintenance and the DMA, the probe and the core always
@@ -239,6 +245,34 @@ pub fn check(p: &Placement, image: &Image) -> Result<(), String> {
             stack.end.saturating_sub(stack.start)
         ));
     }
+    // 6. What the reset handler zeroes.
+    let (sbss, _) = image.symbol("__sbss")?;
+    let (ebss, _) = image.symbol("__ebss")?;
+    let zeroed = sbss..ebss;
+    let bss = image
+        .sections
+        .iter()
+        .find(|s| s.name == ".bss")
+        .map_or(sbss..sbss, |s| s.range());
+    if !inside(&zeroed, &p.dtcm)
+        || zeroed.end > bss.end.next_multiple_of(4)
+        || zeroed.start < bss.start
+    {
+        broken.push(format!(
+            "the reset handler zeroes __sbss..__ebss ({}), which is not .bss ({}) alone: a section inserted after .bss in another region moved __ebss (INSERT BEFORE .bss in the memory map)",
+            hex(&zeroed),
+            hex(&bss)
+        ));
+    }
+    if let Some(uninit) = image.sections.iter().find(|s| s.name == ".uninit") {
+        if !inside(&uninit.range(), &p.dtcm) {
+            broken.push(format!(
+                ".uninit ({}) is outside the DTCM {}",
+                hex(&uninit.range()),
+                hex(&p.dtcm)
+            ));
+        }
+    }
     // 4. The probe's window into the log.
     let (rtt, rtt_size) = image.symbol("_SEGGER_RTT")?;
     let rtt = rtt..rtt + rtt_size.max(1);
@@ -289,6 +323,8 @@ mod tests {
             ("_stack_start", 0x2001_5000, 0),
             ("_stack_end", 0x2000_0000, 0),
             ("_SEGGER_RTT", 0x2001_6000, 48),
+            ("__sbss", 0x2001_5200, 0),
+            ("__ebss", 0x2001_5200 + 40_000, 0),
         ] {
             symbols.insert(name.to_string(), (addr, size));
         }
@@ -393,5 +429,31 @@ mod tests {
             .insert("_SEGGER_RTT".into(), (0x3000_0000, 48));
         let e = check(rules(), &image).unwrap_err();
         assert!(e.contains("_SEGGER_RTT"), "{e}");
+    }
+
+    /// Rule 6: the H743 image as linked before the fix (the DMA RAM's
+    /// sections inserted after .bss): __ebss at the end of .diag_ram in
+    /// the AXI SRAM, so the reset handler zeroed through 0x2002_0000.
+    #[test]
+    fn a_zeroed_range_that_runs_past_bss_is_refused() {
+        let mut image = h743();
+        image.symbols.insert("__ebss".into(), (0x2400_a180, 0));
+        let e = check(rules(), &image).unwrap_err();
+        assert!(
+            e.contains("zeroes __sbss..__ebss (0x20015200..0x2400a180)"),
+            "{e}"
+        );
+        // Within the DTCM but reaching into .uninit: refused too.
+        image.symbols.insert("__ebss".into(), (0x2001_f400, 0));
+        let e = check(rules(), &image).unwrap_err();
+        assert!(e.contains("not .bss (0x20015200..0x2001ee40) alone"), "{e}");
+    }
+
+    #[test]
+    fn uninit_outside_the_dtcm_is_refused() {
+        let mut image = h743();
+        image.sections[5].addr = 0x2407_0000;
+        let e = check(rules(), &image).unwrap_err();
+        assert!(e.contains(".uninit (0x24070000"), "{e}");
     }
 }
