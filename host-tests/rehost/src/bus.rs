@@ -1,0 +1,248 @@
+//! The peripheral side of the chip: every model answers reads and writes
+//! at offsets into its block, and the bus finds the block. An access that
+//! no block claims, or that a model refuses (a reserved register, a
+//! reserved bit written, a clock above its limit), stops the run.
+
+use crate::clocks::Clocks;
+
+/// Why a model refused an access: the rule it breaks, in the chip's words.
+pub type Refusal = String;
+
+/// What a model sees of the rest of the chip during an access.
+pub struct Cx<'a> {
+    /// Virtual time: core clock cycles since reset (one instruction a
+    /// cycle).
+    pub now: u64,
+    /// The clock tree as RCC, PWR and FLASH have set it.
+    pub clocks: &'a mut Clocks,
+    /// Interrupt lines raised by this access (the NVIC's numbering).
+    pub raise: &'a mut Vec<u32>,
+}
+
+/// One peripheral's registers.
+pub trait Peripheral {
+    /// The block's name in the reference manual (`RCC`, `GPIOA`).
+    fn name(&self) -> &'static str;
+    /// A read of `size` bytes (1, 2 or 4) at `offset` into the block.
+    fn read(&mut self, offset: u32, size: u32, cx: &mut Cx) -> Result<u32, Refusal>;
+    /// A write of `size` bytes at `offset`.
+    fn write(&mut self, offset: u32, size: u32, value: u32, cx: &mut Cx) -> Result<(), Refusal>;
+    /// Time moved on to `cx.now`: ready bits, counters, interrupts. Called
+    /// before every access to the block and whenever the core sleeps.
+    fn advance(&mut self, _cx: &mut Cx) -> Result<(), Refusal> {
+        Ok(())
+    }
+    /// The next virtual time (cycles) at which this model has something
+    /// to do by itself (a timer's compare, a ready bit), for WFI.
+    fn next_event(&self, _now: u64) -> Option<u64> {
+        None
+    }
+}
+
+/// A block on the bus.
+pub struct Block {
+    pub base: u32,
+    pub size: u32,
+    /// The name RCC's enable bit goes by, when the block has one: an
+    /// access while it is clear stops the run (on silicon the block
+    /// ignores writes and reads 0).
+    pub clock: Option<&'static str>,
+    pub model: Box<dyn Peripheral>,
+}
+
+/// Every peripheral block of the chip.
+#[derive(Default)]
+pub struct Bus {
+    pub blocks: Vec<Block>,
+}
+
+impl Bus {
+    /// Adds a block; blocks must not overlap (checked by the tests of each
+    /// chip's map).
+    pub fn add(
+        &mut self,
+        base: u32,
+        size: u32,
+        clock: Option<&'static str>,
+        model: impl Peripheral + 'static,
+    ) {
+        self.blocks.push(Block {
+            base,
+            size,
+            clock,
+            model: Box::new(model),
+        });
+    }
+
+    /// The block holding `addr`, and the offset into it.
+    pub fn find(&mut self, addr: u32) -> Option<(&mut Block, u32)> {
+        self.blocks
+            .iter_mut()
+            .find(|b| addr >= b.base && addr - b.base < b.size)
+            .map(|b| {
+                let offset = addr - b.base;
+                (b, offset)
+            })
+    }
+}
+
+/// One register: its offset, reset value, the bits software may write,
+/// and the bits the hardware drives (read-only: writes to them are
+/// ignored). Every other bit is reserved: "must be kept at reset value"
+/// (every STM32 reference manual), so a write that changes one is refused.
+#[derive(Clone, Copy, Debug)]
+pub struct Reg {
+    pub offset: u32,
+    pub name: &'static str,
+    pub reset: u32,
+    pub rw: u32,
+    pub ro: u32,
+}
+
+/// A register with `rw` writable bits, `ro` hardware bits.
+pub const fn reg(offset: u32, name: &'static str, reset: u32, rw: u32, ro: u32) -> Reg {
+    Reg {
+        offset,
+        name,
+        reset,
+        rw,
+        ro,
+    }
+}
+
+/// Registers as plain words: the common case of a model whose registers
+/// mostly hold configuration.
+#[derive(Clone, Debug)]
+pub struct Regs {
+    pub table: &'static [Reg],
+    pub values: Vec<u32>,
+}
+
+impl Regs {
+    pub fn new(table: &'static [Reg]) -> Regs {
+        Regs {
+            table,
+            values: table.iter().map(|r| r.reset).collect(),
+        }
+    }
+
+    fn index(&self, offset: u32) -> Option<usize> {
+        self.table.iter().position(|r| r.offset == offset & !3)
+    }
+
+    /// The register's value, by offset.
+    pub fn get(&self, offset: u32) -> u32 {
+        self.index(offset).map_or(0, |i| self.values[i])
+    }
+
+    /// Sets a register's value (the hardware's own bits: no check).
+    pub fn set(&mut self, offset: u32, value: u32) {
+        if let Some(i) = self.index(offset) {
+            self.values[i] = value;
+        }
+    }
+
+    /// Sets or clears hardware bits of a register.
+    pub fn set_bits(&mut self, offset: u32, bits: u32, on: bool) {
+        let v = self.get(offset);
+        self.set(offset, if on { v | bits } else { v & !bits });
+    }
+
+    /// A read: the register, shifted for a byte or half-word access.
+    pub fn read(&self, block: &str, offset: u32, size: u32) -> Result<u32, Refusal> {
+        let i = self
+            .index(offset)
+            .ok_or_else(|| format!("{block}: no register at offset {offset:#x} (reserved)"))?;
+        Ok(narrow(self.values[i], offset, size))
+    }
+
+    /// A write: reserved bits must keep their reset value, hardware bits
+    /// keep theirs. Returns the old and the new value.
+    pub fn write(
+        &mut self,
+        block: &str,
+        offset: u32,
+        size: u32,
+        value: u32,
+    ) -> Result<(u32, u32), Refusal> {
+        let i = self
+            .index(offset)
+            .ok_or_else(|| format!("{block}: no register at offset {offset:#x} (reserved)"))?;
+        let r = self.table[i];
+        let old = self.values[i];
+        let written = widen(old, offset, size, value);
+        let reserved = !(r.rw | r.ro);
+        let changed = (written ^ r.reset) & reserved;
+        if changed != 0 {
+            return Err(format!(
+                "{block}_{}: reserved bits {changed:#010x} written (value {written:#010x}; writable {:#010x}, reset {:#010x})",
+                r.name, r.rw, r.reset
+            ));
+        }
+        let new = (written & r.rw) | (old & !r.rw);
+        self.values[i] = new;
+        Ok((old, new))
+    }
+
+    /// The register's name at an offset (for messages).
+    pub fn name(&self, offset: u32) -> &'static str {
+        self.index(offset).map_or("?", |i| self.table[i].name)
+    }
+}
+
+/// The bytes of a register a narrow read returns.
+pub fn narrow(word: u32, offset: u32, size: u32) -> u32 {
+    let shift = (offset & 3) * 8;
+    match size {
+        1 => (word >> shift) & 0xff,
+        2 => (word >> shift) & 0xffff,
+        _ => word,
+    }
+}
+
+/// A register after a narrow write into it.
+pub fn widen(old: u32, offset: u32, size: u32, value: u32) -> u32 {
+    let shift = (offset & 3) * 8;
+    match size {
+        1 => (old & !(0xff << shift)) | ((value & 0xff) << shift),
+        2 => (old & !(0xffff << shift)) | ((value & 0xffff) << shift),
+        _ => value,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TABLE: &[Reg] = &[
+        reg(0x0, "CR", 0x0000_0083, 0x0000_00f1, 0x0000_0002),
+        reg(0x4, "DR", 0, 0xffff_ffff, 0),
+    ];
+
+    #[test]
+    fn a_reserved_bit_written_is_refused_and_named() {
+        let mut r = Regs::new(TABLE);
+        assert!(r.write("X", 0, 4, 0x0000_0081).is_ok());
+        // A hardware bit written 0 keeps the hardware's 1.
+        assert_eq!(r.get(0), 0x0000_0083);
+        let e = r.write("X", 0, 4, 0x0001_0081).unwrap_err();
+        assert!(e.contains("X_CR: reserved bits 0x00010000"), "{e}");
+    }
+
+    #[test]
+    fn an_offset_with_no_register_is_refused() {
+        let mut r = Regs::new(TABLE);
+        assert!(r.read("X", 0x8, 4).is_err());
+        assert!(r.write("X", 0x10, 4, 0).is_err());
+    }
+
+    #[test]
+    fn narrow_accesses_reach_the_right_bytes() {
+        let mut r = Regs::new(TABLE);
+        r.write("X", 0x5, 1, 0xab).unwrap();
+        assert_eq!(r.get(4), 0x0000_ab00);
+        assert_eq!(r.read("X", 0x5, 1).unwrap(), 0xab);
+        r.write("X", 0x6, 2, 0x1234).unwrap();
+        assert_eq!(r.get(4), 0x1234_ab00);
+    }
+}

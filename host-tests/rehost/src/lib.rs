@@ -1,0 +1,11 @@
+//! Rehosting: the unmodified NUCLEO firmware images on unicorn's
+//! Cortex-M7, with a strict register-level model of their chip. See
+//! `host-tests/rehost/README.md` for what is modelled and what is not.
+
+pub mod bus;
+pub mod chip;
+pub mod clocks;
+pub mod f7;
+pub mod image;
+pub mod machine;
+pub mod scs;
