@@ -31,6 +31,7 @@ pub mod memory_map;
 pub mod probe;
 pub mod qemu;
 pub mod qemu_bench;
+pub mod rehost;
 pub mod replay;
 pub mod run_args;
 pub mod sensor;

@@ -74,6 +74,14 @@ impl Bus {
         });
     }
 
+    /// The soonest time any model has something to do by itself.
+    pub fn next_event(&self, now: u64) -> Option<u64> {
+        self.blocks
+            .iter()
+            .filter_map(|b| b.model.next_event(now))
+            .min()
+    }
+
     /// The block holding `addr`, and the offset into it.
     pub fn find(&mut self, addr: u32) -> Option<(&mut Block, u32)> {
         self.blocks

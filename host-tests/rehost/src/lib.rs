@@ -5,7 +5,11 @@
 pub mod bus;
 pub mod chip;
 pub mod clocks;
+pub mod exceptions;
 pub mod f7;
+pub mod h7;
 pub mod image;
 pub mod machine;
 pub mod scs;
+pub mod simple;
+pub mod timer;

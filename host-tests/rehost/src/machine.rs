@@ -10,6 +10,7 @@
 use crate::bus::{Bus, Cx};
 use crate::chip::{Access, Chip};
 use crate::clocks::Clocks;
+use crate::exceptions::{self, Active, HARD_FAULT};
 use crate::image::Image;
 use crate::scs::Scs;
 use std::rc::Rc;
@@ -62,9 +63,46 @@ pub struct State {
     pub stop: Option<Stop>,
     /// Interrupt lines raised by models since the last look.
     pub raised: Vec<u32>,
+    /// The exceptions being handled.
+    pub active: Active,
+    pub exceptions_taken: u64,
+    /// The handler branched to this EXC_RETURN value.
+    pub exception_return: Option<u32>,
+    /// A fault to take: (exception, return address, why).
+    pub fault: Option<(u32, u32, &'static str)>,
+    /// The core reached WFI or WFE: (its address, its size, WFE?).
+    pub sleeping: Option<(u32, u32, bool)>,
+    /// The event register (SEV, exception return) that WFE consumes.
+    pub event: bool,
+    /// Cycles the core spent asleep.
+    pub slept: u64,
+    /// The core reached the address of [`Machine::stop_at`].
+    pub reached: bool,
+    /// Instructions in each translated block, by its address.
+    pub block_sizes: std::collections::HashMap<u64, u64>,
 }
 
 impl State {
+    /// Brings every model up to `now` and pends the lines they raise.
+    pub fn advance_models(&mut self) -> Result<(), String> {
+        let mut cx = Cx {
+            now: self.now,
+            clocks: &mut self.clocks,
+            raise: &mut self.raised,
+        };
+        for b in &mut self.bus.blocks {
+            b.model
+                .advance(&mut cx)
+                .map_err(|rule| format!("{}: {rule}", b.model.name()))?;
+        }
+        for irq in self.raised.drain(..) {
+            if let Some(p) = self.scs.pending.get_mut(irq as usize) {
+                *p = true;
+            }
+        }
+        Ok(())
+    }
+
     /// Records the first stop; later ones are consequences of it.
     fn refuse(&mut self, rule: String, addr: Option<u64>, pc: u64) {
         if self.stop.is_none() {
@@ -98,6 +136,15 @@ impl Machine {
             deadline: u64::MAX,
             stop: None,
             raised: Vec::new(),
+            block_sizes: std::collections::HashMap::new(),
+            reached: false,
+            active: Active::default(),
+            exceptions_taken: 0,
+            exception_return: None,
+            fault: None,
+            sleeping: None,
+            event: false,
+            slept: 0,
         };
         fn e(what: &'static str) -> impl Fn(unicorn_engine::uc_error) -> String {
             move |err| format!("unicorn: {what}: {err:?}")
@@ -179,26 +226,59 @@ impl Machine {
             },
         )
         .map_err(e("memory hook"))?;
-        // Virtual time: every retired instruction is one core cycle.
-        uc.add_code_hook(1, 0, |uc, _addr, _size| {
+        // Virtual time: every retired instruction is one core cycle,
+        // counted a translated block at a time (a block hook per block,
+        // not a code hook per instruction: 8x faster here).
+        uc.add_block_hook(1, 0, |uc, addr, size| {
+            let count = {
+                let s = uc.get_data_mut();
+                s.block_sizes.get(&addr).copied()
+            };
+            let count = match count {
+                Some(c) => c,
+                None => {
+                    let mut bytes = vec![0; size as usize];
+                    let _ = uc.mem_read(addr, &mut bytes);
+                    let c = thumb_instructions(&bytes);
+                    uc.get_data_mut().block_sizes.insert(addr, c);
+                    c
+                }
+            };
             let s = uc.get_data_mut();
-            s.now += 1;
+            s.now += count;
             if s.now >= s.deadline {
                 let _ = uc.emu_stop();
             }
         })
-        .map_err(e("code hook"))?;
+        .map_err(e("block hook"))?;
         uc.add_intr_hook(|uc, intno| {
             let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
-            uc.get_data_mut().refuse(
-                format!("a CPU exception unicorn raised (#{intno})"),
-                None,
-                pc,
-            );
+            let s = uc.get_data_mut();
+            match intno {
+                // EXCP_EXCEPTION_EXIT: a branch to EXC_RETURN in handler mode.
+                8 => s.exception_return = Some(pc as u32),
+                // EXCP_UDEF: an undefined instruction, a UsageFault that
+                // escalates to HardFault (UsageFault is not enabled).
+                1 => {
+                    s.fault = Some((
+                        HARD_FAULT,
+                        pc as u32,
+                        "an undefined instruction (UsageFault, escalated)",
+                    ))
+                }
+                _ => s.refuse(
+                    format!(
+                        "a CPU exception unicorn raised (#{intno}) that this model does not take"
+                    ),
+                    None,
+                    pc,
+                ),
+            }
             let _ = uc.emu_stop();
         })
         .map_err(e("interrupt hook"))?;
 
+        install_instruction_hooks(&mut uc, &image)?;
         let sp = image
             .word(u64::from(chip.boot))
             .ok_or("no vector table at the boot address")?;
@@ -216,30 +296,173 @@ impl Machine {
 
     /// Runs until a stop or `cycles` more cycles.
     pub fn run(&mut self, cycles: u64) -> Option<Stop> {
-        let s = self.uc.get_data_mut();
-        s.deadline = s.now.saturating_add(cycles);
+        let deadline = self.uc.get_data().now.saturating_add(cycles);
         loop {
-            let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
-            let result = self.uc.emu_start(pc | 1, 0, 0, 0);
-            let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
+            if let Err(rule) = self.between_slices(deadline) {
+                let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
+                self.uc.get_data_mut().refuse(rule, None, pc);
+            }
             let s = self.uc.get_data_mut();
             if let Some(stop) = &s.stop {
                 return Some(stop.clone());
             }
-            if let Err(err) = result {
-                s.refuse(format!("unicorn stopped: {err:?}"), None, pc);
-                return s.stop.clone();
-            }
-            if s.now >= s.deadline {
+            if s.now >= deadline {
                 return None;
             }
+            // Run until the next thing a model has to do by itself.
+            let next = s.bus.next_event(s.now).unwrap_or(u64::MAX);
+            s.deadline = deadline.min(next.max(s.now + 1));
+            let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
+            let result = self.uc.emu_start(pc | 1, 0, 0, 0);
+            let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
+            let s = self.uc.get_data_mut();
+            if let Err(err) = result {
+                if s.stop.is_none() {
+                    s.refuse(format!("unicorn stopped: {err:?}"), None, pc);
+                }
+            }
         }
+    }
+
+    /// What happens between two slices of execution: an exception
+    /// return, a fault, sleep until the next event, time moved on for
+    /// every model, and the pending exceptions taken.
+    fn between_slices(&mut self, deadline: u64) -> Result<(), String> {
+        let uc = &mut self.uc;
+        if let Some(ret) = uc.get_data_mut().exception_return.take() {
+            exceptions::leave(uc, ret)?;
+        }
+        if let Some((exc, at, why)) = uc.get_data_mut().fault.take() {
+            if uc
+                .get_data()
+                .active
+                .stack
+                .iter()
+                .any(|&(e, _)| e == HARD_FAULT)
+            {
+                return Err(format!(
+                    "{why} inside the HardFault handler: the core locks up"
+                ));
+            }
+            uc.get_data_mut().scs.fault_reason = Some(why);
+            exceptions::enter(uc, exc, at)?;
+        }
+        if let Some((pc, size, wfe)) = uc.get_data_mut().sleeping.take() {
+            let s = uc.get_data_mut();
+            if wfe && s.event {
+                s.event = false;
+            } else {
+                loop {
+                    uc.get_data_mut().advance_models()?;
+                    if exceptions::next(uc).is_some() {
+                        break;
+                    }
+                    let s = uc.get_data_mut();
+                    let Some(t) = s.bus.next_event(s.now) else {
+                        return Err(if wfe { "WFE" } else { "WFI" }.to_string()
+                            + " with no interrupt pending, enabled or due: the core sleeps forever");
+                    };
+                    let t = t.max(s.now + 1);
+                    if t >= deadline {
+                        s.slept += deadline.saturating_sub(s.now);
+                        s.now = deadline;
+                        // Resume at the sleep instruction next time.
+                        s.sleeping = Some((pc, size, wfe));
+                        return Ok(());
+                    }
+                    s.slept += t - s.now;
+                    s.now = t;
+                }
+            }
+            let _ = uc.reg_write(RegisterARM::PC, u64::from(pc + size));
+        }
+        uc.get_data_mut().advance_models()?;
+        while let Some(exc) = exceptions::next(uc) {
+            let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0) as u32;
+            exceptions::enter(uc, exc, pc)?;
+        }
+        Ok(())
+    }
+
+    /// Ends the run when the core reaches `addr` (a function's entry).
+    pub fn stop_at(&mut self, addr: u64) -> Result<(), String> {
+        let addr = addr & !1;
+        self.uc
+            .add_code_hook(addr, addr, |uc, _, _| {
+                let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
+                let s = uc.get_data_mut();
+                s.reached = true;
+                s.refuse("reached".into(), None, pc);
+                let _ = uc.emu_stop();
+            })
+            .map(|_| ())
+            .map_err(|e| format!("unicorn: code hook: {e:?}"))
+    }
+
+    /// Whether the run ended at the address given to [`Machine::stop_at`].
+    pub fn reached(&self) -> bool {
+        self.uc.get_data().reached
+    }
+
+    /// The PC and its function.
+    pub fn where_now(&self) -> String {
+        let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
+        format!("PC {pc:#010x} in {}", self.uc.get_data().image.describe(pc))
     }
 
     /// Virtual time, in core cycles.
     pub fn now(&self) -> u64 {
         self.uc.get_data().now
     }
+}
+
+/// Hooks on the instructions the model must see (ARMv7-M A7.7): WFI and
+/// WFE (the core sleeps until the next event), SEV (the event register),
+/// and CPSIE and MSR to PRIMASK/BASEPRI/FAULTMASK, after which a pending
+/// interrupt may be taken at once.
+fn install_instruction_hooks(
+    uc: &mut Unicorn<'static, State>,
+    image: &Image,
+) -> Result<(), String> {
+    let sleeps = image.find_code(|hw, _| hw == 0xBF30 || hw == 0xBF20);
+    for addr in sleeps {
+        uc.add_code_hook(addr, addr, |uc, addr, size| {
+            let mut hw = [0; 2];
+            let _ = uc.mem_read(addr, &mut hw);
+            let wfe = u16::from_le_bytes(hw) == 0xBF20;
+            uc.get_data_mut().sleeping = Some((addr as u32, size, wfe));
+            let _ = uc.emu_stop();
+        })
+        .map_err(|e| format!("unicorn: WFI hook: {e:?}"))?;
+    }
+    for addr in image.find_code(|hw, _| hw == 0xBF40) {
+        uc.add_code_hook(addr, addr, |uc, _, _| uc.get_data_mut().event = true)
+            .map_err(|e| format!("unicorn: SEV hook: {e:?}"))?;
+    }
+    let unmasks = image.find_code(|hw, next| {
+        hw == 0xB662
+            || (hw & 0xFFF0 == 0xF380
+                && next & 0xFF00 == 0x8800
+                && (0x10..=0x13).contains(&(next & 0xFF)))
+    });
+    for addr in unmasks {
+        uc.add_code_hook(addr, addr, |uc, _, _| {
+            let s = uc.get_data();
+            let pending = s.scs.pendsv
+                || s.scs.systick_pending
+                || s.scs
+                    .pending
+                    .iter()
+                    .zip(&s.scs.enabled)
+                    .any(|(p, e)| *p && *e);
+            if pending {
+                // Stops after this block: the unmasking instruction has run.
+                let _ = uc.emu_stop();
+            }
+        })
+        .map_err(|e| format!("unicorn: CPSIE hook: {e:?}"))?;
+    }
+    Ok(())
 }
 
 fn bus_read(uc: &mut Unicorn<State>, addr: u64, size: usize) -> u64 {
@@ -262,6 +485,12 @@ fn bus_write(uc: &mut Unicorn<State>, addr: u64, size: usize, value: u64) {
     if let Err(rule) = access(s, addr, size as u32, Some(value as u32)) {
         s.refuse(rule, Some(addr), pc);
         let _ = uc.emu_stop();
+    } else if addr >= PPB.0 || !s.raised.is_empty() {
+        // The NVIC or a line changed: an exception may be due now. Not
+        // emu_stop here: inside an MMIO callback it leaves the PC on the
+        // store, which would run again; the block hook stops at the next
+        // block instead.
+        s.deadline = s.now;
     }
 }
 
@@ -273,14 +502,14 @@ fn access(s: &mut State, addr: u64, size: u32, write: Option<u32>) -> Result<u32
         clocks: &mut s.clocks,
         raise: &mut s.raised,
     };
-    if addr >= PPB.0 {
-        return match write {
-            Some(v) => s.scs.write(a, size, v, &mut cx).map(|()| 0),
-            None => s.scs.read(a, size, &mut cx),
-        };
-    }
     let kind = if write.is_some() { "write" } else { "read" };
     let Some((block, offset)) = s.bus.find(a) else {
+        if addr >= PPB.0 {
+            return match write {
+                Some(v) => s.scs.write(a, size, v, &mut cx).map(|()| 0),
+                None => s.scs.read(a, size, &mut cx),
+            };
+        }
         return Err(format!(
             "a {size}-byte {kind} that no memory or model claims"
         ));
@@ -306,4 +535,33 @@ fn access(s: &mut State, addr: u64, size: u32, write: Option<u32>) -> Result<u32
             format!("{name}: {rule}")
         }
     })
+}
+
+/// Thumb-2 instructions in a run of code: a half-word whose top five bits
+/// are 0b11101, 0b11110 or 0b11111 starts a 32-bit instruction (ARMv7-M
+/// ARM A5.1), every other one is a 16-bit instruction.
+pub fn thumb_instructions(code: &[u8]) -> u64 {
+    let mut i = 0;
+    let mut n = 0;
+    while i + 1 < code.len() {
+        let hw = u16::from_le_bytes([code[i], code[i + 1]]);
+        i += if hw >> 11 >= 0b11101 { 4 } else { 2 };
+        n += 1;
+    }
+    n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thumb_instructions_are_told_by_their_first_half_word() {
+        // movs r0, #1; ldr.w r0, [r8]; bx lr
+        assert_eq!(
+            thumb_instructions(&[0x01, 0x20, 0xd8, 0xf8, 0x00, 0x00, 0x70, 0x47]),
+            3
+        );
+        assert_eq!(thumb_instructions(&[]), 0);
+    }
 }

@@ -1,62 +1,119 @@
-//! `cargo rehost`: boot a NUCLEO image on the model of its chip.
+//! The rehosting engine: boots a NUCLEO image on the model of its chip.
+//! Users run it through `cargo rehost` (host-tests' launcher, which
+//! installs what unicorn's build needs and builds the image first).
+//!
+//! Exit status: 0 when the run ended as asked (`--until` reached, the
+//! cycle budget spent, or with `--expect-stop` the expected stop), 1 when
+//! the model stopped the image (or did not, with `--expect-stop`), 2 on a
+//! usage or load error.
 
 use clap::Parser;
-use rri_rehost::{bus::Bus, chip, image::Image, machine::Machine};
+use rri_rehost::{chip, image::Image, machine::Machine};
 use std::path::PathBuf;
 
 #[derive(Parser)]
+#[command(about = "Boot a NUCLEO firmware image on a strict model of its chip")]
 struct Args {
-    /// f767 or h743.
+    /// The board: f767 (NUCLEO-F767ZI) or h743 (NUCLEO-H743ZI2).
     #[arg(long)]
     board: String,
     /// The image (default: the one `cargo build-f767` / `build-h743` writes).
     #[arg(long)]
     elf: Option<PathBuf>,
-    /// Stop after this many core cycles.
+    /// Stop after this many core cycles of virtual time.
     #[arg(long, default_value_t = 2_000_000_000)]
     cycles: u64,
+    /// End the run when the core reaches this function (its mangled or
+    /// plain symbol name, e.g. `main`).
+    #[arg(long)]
+    until: Option<String>,
+    /// The run must be stopped by the model with a message containing
+    /// this text (a broken variant's check).
+    #[arg(long)]
+    expect_stop: Option<String>,
 }
 
 fn main() {
     let args = Args::parse();
-    let ((bus, clocks), chip, dir) = match args.board.as_str() {
+    let (parts, chip, dir) = match args.board.as_str() {
         "f767" => (rri_rehost::f7::bus(), chip::STM32F767ZI, "nucleo-f767zi"),
-        "h743" => (
-            (Bus::default(), Default::default()),
-            chip::STM32H743ZI,
-            "nucleo-h743zi",
-        ),
-        other => {
-            eprintln!("error: no board {other:?} (f767 or h743)");
-            std::process::exit(2);
-        }
+        "h743" => (rri_rehost::h7::bus(), chip::STM32H743ZI, "nucleo-h743zi"),
+        other => fail(2, &format!("no board {other:?} (f767 or h743)")),
     };
     let elf = args.elf.unwrap_or_else(|| {
         PathBuf::from(format!(
             "target/{dir}/thumbv7em-none-eabihf/firmware/rri-sensor"
         ))
     });
-    let image = match Image::read(&elf) {
-        Ok(i) => i,
-        Err(e) => {
-            eprintln!("error: {e}");
-            std::process::exit(2);
-        }
-    };
-    let mut m = match Machine::new(chip, image, bus, clocks) {
-        Ok(m) => m,
-        Err(e) => {
-            eprintln!("error: {e}");
-            std::process::exit(2);
-        }
-    };
-    let t = std::time::Instant::now();
-    match m.run(args.cycles) {
-        Some(stop) => {
-            println!("rehost: stopped: {stop}");
-            println!("({} instructions in {:.2?})", m.now(), t.elapsed());
-            std::process::exit(1);
-        }
-        None => println!("rehost: ran {} cycles", m.now()),
+    let image = Image::read(&elf).unwrap_or_else(|e| fail(2, &e));
+    let until = args.until.as_ref().map(|name| {
+        image
+            .symbol(name)
+            .unwrap_or_else(|| fail(2, &format!("{}: no symbol {name:?}", elf.display())))
+    });
+    let (bus, clocks) = parts;
+    let mut m = Machine::new(chip, image, bus, clocks).unwrap_or_else(|e| fail(2, &e));
+    if let Some(addr) = until {
+        m.stop_at(addr).unwrap_or_else(|e| fail(2, &e));
     }
+    println!(
+        "rehost: {} ({}) on {}, one instruction a core cycle",
+        elf.display(),
+        args.board,
+        chip.name
+    );
+    let t = std::time::Instant::now();
+    let stop = m.run(args.cycles);
+    let elapsed = t.elapsed();
+    match (stop, &args.expect_stop) {
+        (Some(stop), None) if m.reached() => {
+            println!(
+                "rehost: reached {} at cycle {} ({:.2?})",
+                args.until.as_deref().unwrap_or("?"),
+                stop.cycles,
+                elapsed
+            );
+        }
+        (Some(stop), None) => fail(1, &format!("stopped: {stop}")),
+        (Some(stop), Some(want)) => {
+            let text = stop.to_string();
+            if text.contains(want.as_str()) && !m.reached() {
+                println!("rehost: stopped as expected: {text}");
+            } else {
+                fail(1, &format!("expected a stop naming {want:?}, got: {text}"));
+            }
+        }
+        (None, Some(want)) => fail(
+            1,
+            &format!(
+                "expected a stop naming {want:?}; the image ran {} cycles without one ({})",
+                m.now(),
+                m.where_now()
+            ),
+        ),
+        (None, None) => {
+            if let Some(name) = &args.until {
+                fail(
+                    1,
+                    &format!(
+                        "{name} not reached in {} cycles ({:.2?}); now at {}",
+                        m.now(),
+                        elapsed,
+                        m.where_now()
+                    ),
+                );
+            }
+            println!(
+                "rehost: ran {} cycles in {:.2?}; now at {}",
+                m.now(),
+                elapsed,
+                m.where_now()
+            );
+        }
+    }
+}
+
+fn fail(code: i32, message: &str) -> ! {
+    eprintln!("rehost: {message}");
+    std::process::exit(code)
 }

@@ -86,6 +86,10 @@ pub struct Scs {
     pub demcr: u32,
     /// Cache maintenance operations, by register name, in order.
     pub cache_ops: Vec<(&'static str, u32)>,
+    /// SysTick's exception is pending (ICSR PENDSTSET).
+    pub systick_pending: bool,
+    /// Why the last fault was taken (for CFSR/HFSR and the report).
+    pub fault_reason: Option<&'static str>,
     /// A software reset was requested (AIRCR.SYSRESETREQ).
     pub reset_requested: bool,
 }
@@ -128,6 +132,8 @@ impl Scs {
             demcr: 0,
             cache_ops: Vec::new(),
             reset_requested: false,
+            systick_pending: false,
+            fault_reason: None,
         }
     }
 
@@ -203,9 +209,11 @@ impl Scs {
             0xE000_1000 => self.dwt_ctrl | u32::from(self.dwt_since.is_some()),
             0xE000_1004 => self.cyccnt(cx.now),
             0xE000_1FB4 => u32::from(!self.dwt_unlocked) << 1 | 1, // LSR: lock present, locked?
-            _ => return Err(format!(
+            _ => {
+                return Err(format!(
                 "the system control space has no register at {addr:#010x} that this model knows"
-            )),
+            ))
+            }
         };
         Ok(narrow(v, addr, size))
     }
@@ -238,6 +246,12 @@ impl Scs {
                 }
             }
             0xE000_ED04 => {
+                if v & (1 << 26) != 0 {
+                    self.systick_pending = true;
+                }
+                if v & (1 << 25) != 0 {
+                    self.systick_pending = false;
+                }
                 if v & (1 << 28) != 0 {
                     self.pendsv = true;
                 }

@@ -6,7 +6,17 @@
 pub mod power;
 pub mod rcc;
 
-use crate::bus::Bus;
+use crate::bus::{reg, Bus, Reg};
+use crate::simple::Plain;
+
+/// DBGMCU (RM0410 §40.16): the device ID (DEV_ID 0x451, revision Z
+/// 0x1001) and the debug freeze bits.
+const DBGMCU: &[Reg] = &[
+    reg(0x00, "IDCODE", 0x1001_0451, 0, 0xFFFF_0FFF),
+    reg(0x04, "CR", 0, 0x0000_00E7, 0),
+    reg(0x08, "APB1_FZ", 0, 0x07E0_1DFF, 0),
+    reg(0x0C, "APB2_FZ", 0, 0x0007_0003, 0),
+];
 use crate::clocks::Clocks;
 
 /// The chip's peripheral blocks and its clocks at reset.
@@ -15,6 +25,15 @@ pub fn bus() -> (Bus, Clocks) {
     bus.add(0x4002_3800, 0x400, None, rcc::Rcc::new());
     bus.add(0x4002_3C00, 0x400, None, power::Flash::new());
     bus.add(0x4000_7000, 0x400, Some("PWR"), power::Pwr::new());
+    bus.add(0xE004_2000, 0x400, None, Plain::new("DBGMCU", DBGMCU));
+    // TIM12: the timer embassy-time's driver takes on this chip (IRQ 43,
+    // TIM8_BRK_TIM12; RM0410 Table 46).
+    bus.add(
+        0x4000_1800,
+        0x400,
+        Some("TIM12"),
+        crate::timer::Timer::new("TIM12", crate::timer::TIM9_12, 43, 0),
+    );
     let mut clocks = Clocks {
         core_hz: rcc::HSI_HZ,
         hclk_hz: rcc::HSI_HZ,

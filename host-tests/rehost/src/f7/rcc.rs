@@ -78,12 +78,27 @@ pub const ENABLES: &[(&str, u32, u32)] = &[
     ("TIM3", 0x40, 1),
     ("TIM4", 0x40, 2),
     ("TIM5", 0x40, 3),
+    ("TIM12", 0x40, 6),
     ("UART4", 0x40, 19),
     ("PWR", 0x40, 28),
     ("ADC1", 0x44, 8),
     ("ADC", 0x44, 8),
     ("SYSCFG", 0x44, 14),
     ("TIM1", 0x44, 0),
+];
+
+/// Every oscillator and PLL: (register, enable bit, ready bit, start-up
+/// time in microseconds). DS11532 §5.3.7-5.3.11: HSI 2 us; HSE in bypass
+/// ready within six cycles of the external clock (1 us here); LSI 40 us
+/// (tSU(LSI) max); LSE 2 s (tSU(LSE) typ.); the PLLs lock within 100 us.
+const READY: &[(u32, u32, u32, u64)] = &[
+    (CR, 0, 1, 2),
+    (CR, 16, 17, 1),
+    (CR, 24, 25, 100),
+    (CR, 26, 27, 100),
+    (CR, 28, 29, 100),
+    (CSR, 0, 1, 40),
+    (0x70, 0, 1, 2_000_000),
 ];
 
 /// A ready bit that follows its enable after a start-up time.
@@ -227,6 +242,17 @@ impl Peripheral for Rcc {
         let before = self.regs.clone();
         let (old, new) = self.regs.write("RCC", offset, size, value)?;
         let changed = old ^ new;
+        for &(reg, on, ready, us) in READY {
+            if reg == offset & !3 && changed & (1 << on) != 0 {
+                let starting = new & (1 << on) != 0;
+                if starting && reg == CR && on == 16 && !self.hse_present {
+                    continue;
+                }
+                // Stopping takes a few cycles of the oscillator itself.
+                let at = cx.now + cycles(cx, if starting { us } else { 1 });
+                self.settle(reg, ready, starting, at);
+            }
+        }
         match offset & !3 {
             CR => {
                 // HSEBYP may be written only while HSE is off (RM0410 §5.3.1).
@@ -244,25 +270,9 @@ impl Peripheral for Rcc {
                     self.regs = before;
                     return Err("RCC_CR: PLLON cleared while the PLL clocks the system".into());
                 }
-                // HSE bypass: ready within 6 cycles of the external clock;
-                // PLL lock: tLOCK, at most 100 us (DS11532 Table 39).
-                if changed & (1 << 16) != 0 {
-                    if new & (1 << 16) != 0 && self.hse_present {
-                        let at = cx.now + cycles(cx, 1);
-                        self.settle(CR, 17, true, at);
-                    } else if new & (1 << 16) == 0 {
-                        let at = cx.now + cycles(cx, 1);
-                        self.settle(CR, 17, false, at);
-                    }
-                }
-                if changed & (1 << 24) != 0 {
-                    let on = new & (1 << 24) != 0;
-                    if on {
-                        // The PLL's settings are checked when it starts.
-                        self.pll_p_hz()?;
-                    }
-                    let at = cx.now + cycles(cx, if on { 100 } else { 1 });
-                    self.settle(CR, 25, on, at);
+                if changed & (1 << 24) != 0 && new & (1 << 24) != 0 {
+                    // The PLL's settings are checked when it starts.
+                    self.pll_p_hz()?;
                 }
             }
             PLLCFGR => {

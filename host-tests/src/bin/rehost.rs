@@ -1,0 +1,82 @@
+//! `cargo rehost -- --board f767|h743 [--elf FILE] [ENGINE ARGS]`: boots
+//! the NUCLEO image on a strict model of its chip (host-tests/rehost):
+//! installs cmake and libclang for the engine's build when missing, builds
+//! the board's image through its alias unless `--elf` names one, builds
+//! the engine and runs it. `cargo rehost -- --broken` builds every broken
+//! variant and checks that the model stops each with its defect named.
+//! Every other argument goes to the engine (`--until main`,
+//! `--cycles N`, `--expect-stop TEXT`; `--help` lists them).
+
+use host_tests::rehost;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let mut take = |flag: &str| -> Option<String> {
+        let i = args.iter().position(|a| a == flag)?;
+        args.remove(i);
+        (i < args.len()).then(|| args.remove(i))
+    };
+    let board = take("--board");
+    let elf = take("--elf").map(PathBuf::from);
+    let broken = args
+        .iter()
+        .position(|a| a == "--broken")
+        .map(|i| args.remove(i))
+        .is_some();
+    let mut out = std::io::stdout();
+    let engine = match rehost::ensure_build_tools(&mut out).and_then(|()| rehost::build_engine()) {
+        Ok(e) => e,
+        Err(e) => return fail(&e),
+    };
+    if broken {
+        let mut failed = 0;
+        for variant in rehost::BROKEN {
+            println!(
+                "== broken variant {} ({}): {}",
+                variant.feature, variant.board, variant.defect
+            );
+            let result = rehost::broken_image(variant).and_then(|elf| {
+                let mut a = args.clone();
+                a.extend(["--expect-stop".to_string(), variant.expect.to_string()]);
+                rehost::run_engine(&engine, variant.board, &elf, &a)
+            });
+            match result {
+                Ok(0) => {}
+                Ok(_) => failed += 1,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    failed += 1;
+                }
+            }
+        }
+        println!(
+            "rehost: {} of {} broken variants stopped with their defect named",
+            rehost::BROKEN.len() - failed,
+            rehost::BROKEN.len()
+        );
+        return if failed == 0 {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::FAILURE
+        };
+    }
+    let Some(board) = board else {
+        return fail("say which board: --board f767 or --board h743 (or --broken)");
+    };
+    let elf = match elf.map_or_else(|| rehost::board_image(&board), Ok) {
+        Ok(e) => e,
+        Err(e) => return fail(&e),
+    };
+    match rehost::run_engine(&engine, &board, &elf, &args) {
+        Ok(0) => ExitCode::SUCCESS,
+        Ok(code) => ExitCode::from(code as u8),
+        Err(e) => fail(&e),
+    }
+}
+
+fn fail(message: &str) -> ExitCode {
+    eprintln!("error: {message}");
+    ExitCode::from(2)
+}

@@ -1,0 +1,187 @@
+//! `cargo rehost` from the host tools' side: what the rehosting engine
+//! (`host-tests/rehost`, crate rri-rehost, GPL-2.0 because it links
+//! unicorn) needs before it can run. Its CPU emulator is C built by cmake,
+//! its bindings generated with libclang: both are installed here when
+//! missing (as `cargo demo` installs QEMU); the board's image is built
+//! through its alias; the engine is built and run with the arguments.
+//! The broken variants (`--broken`) are images built with one defect each
+//! (hal-board's `rehost-broken-*` features), every one of which the model
+//! must stop with its defect named.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Debian's packages unicorn's build needs, by the command or file that
+/// shows each is there.
+const PACKAGES: &[(&str, &str)] = &[("cmake", "cmake"), ("libclang-dev", "libclang")];
+
+/// A broken variant of an image: the hal-board feature that breaks it,
+/// the board, and the text the model's stop must contain.
+pub struct Broken {
+    pub feature: &'static str,
+    pub board: &'static str,
+    pub defect: &'static str,
+    pub expect: &'static str,
+}
+
+/// Every broken variant and the stop that proves the model sees it.
+pub const BROKEN: &[Broken] = &[Broken {
+    feature: "hal-board/rehost-broken-bss",
+    board: "h743",
+    defect: "the DMA RAM's sections inserted after .bss: the reset handler zeroes through the reserved hole after the DTCM",
+    expect: "write that no memory or model claims [address 0x20020000] at PC",
+}];
+
+fn has_libclang() -> bool {
+    if std::env::var_os("LIBCLANG_PATH").is_some() {
+        return true;
+    }
+    [
+        "/usr/lib",
+        "/usr/lib/x86_64-linux-gnu",
+        "/usr/lib/aarch64-linux-gnu",
+    ]
+    .iter()
+    .filter_map(|d| std::fs::read_dir(d).ok())
+    .flatten()
+    .flatten()
+    .any(|e| {
+        let name = e.file_name();
+        let name = name.to_string_lossy();
+        name.starts_with("libclang") && name.contains(".so")
+            || name.starts_with("llvm-") && e.path().join("lib/libclang.so").exists()
+    })
+}
+
+fn has(what: &str) -> bool {
+    match what {
+        "libclang" => has_libclang(),
+        cmd => Command::new(cmd)
+            .arg("--version")
+            .output()
+            .is_ok_and(|o| o.status.success()),
+    }
+}
+
+/// Installs cmake and libclang with apt-get when missing and we are root;
+/// else says what to install.
+pub fn ensure_build_tools(out: &mut dyn Write) -> Result<(), String> {
+    let missing: Vec<&str> = PACKAGES
+        .iter()
+        .filter(|(_, probe)| !has(probe))
+        .map(|(p, _)| *p)
+        .collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
+    if !root || Command::new("apt-get").arg("--version").output().is_err() {
+        return Err(format!(
+            "the rehosting engine's CPU emulator (unicorn) builds with cmake and libclang: install {} (Debian/Ubuntu: `sudo apt-get install {}`) and run this again",
+            missing.join(" and "),
+            missing.join(" ")
+        ));
+    }
+    let _ = writeln!(out, "installing {} with apt-get (once)…", missing.join(" "));
+    let mut install = vec!["install", "-y", "-qq", "--no-install-recommends"];
+    install.extend(&missing);
+    for args in [&["update", "-qq"][..], &install[..]] {
+        let status = Command::new("apt-get")
+            .args(args)
+            .env("DEBIAN_FRONTEND", "noninteractive")
+            .status()
+            .map_err(|e| format!("apt-get: {e}"))?;
+        if !status.success() {
+            return Err(format!("apt-get {} failed ({status})", args.join(" ")));
+        }
+    }
+    Ok(())
+}
+
+/// Builds the engine (release) and returns its path.
+pub fn build_engine() -> Result<PathBuf, String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let ws = crate::workspace();
+    let status = Command::new(&cargo)
+        .current_dir(&ws)
+        .args([
+            "build",
+            "--release",
+            "-p",
+            "rri-rehost",
+            "--bin",
+            "rri-rehost",
+        ])
+        .status()
+        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
+    if !status.success() {
+        return Err(format!("building the rehosting engine failed ({status})"));
+    }
+    Ok(crate::qemu::target_dir().join("release").join("rri-rehost"))
+}
+
+/// The board's image, built through its alias (`cargo build-f767`,
+/// `build-h743`) and kept at `target/boards/<name>.elf`.
+pub fn board_image(board: &str) -> Result<PathBuf, String> {
+    let b = crate::boards::BOARDS
+        .iter()
+        .find(|b| b.alias == format!("build-{board}"))
+        .ok_or_else(|| format!("no board {board:?} (f767 or h743)"))?;
+    crate::boards::build(b)
+}
+
+/// Builds a broken variant in its own target directory
+/// (`target/rehost-broken`, so no board's image is replaced) and returns
+/// its ELF.
+pub fn broken_image(variant: &Broken) -> Result<PathBuf, String> {
+    let board = match variant.board {
+        "f767" => "board,hal-board/nucleo-f767zi",
+        _ => "board,hal-board/nucleo-h743zi",
+    };
+    crate::mcu_target::ensure()?;
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let dir = crate::qemu::target_dir().join("rehost-broken");
+    let status = Command::new(&cargo)
+        .current_dir(crate::workspace())
+        .env_remove("RRI_GSI_DIR")
+        .env_remove("RRI_DEVICE")
+        .args([
+            "build",
+            "-p",
+            "rri-sensor",
+            "--bin",
+            "rri-sensor",
+            "--profile",
+            crate::qemu::PROFILE,
+        ])
+        .args(["--target", crate::qemu::TARGET])
+        .args(["--features", &format!("{board},{}", variant.feature)])
+        .arg("--target-dir")
+        .arg(&dir)
+        .status()
+        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
+    if !status.success() {
+        return Err(format!(
+            "the broken variant {} did not build ({status})",
+            variant.feature
+        ));
+    }
+    let name = variant.feature.trim_start_matches("hal-board/");
+    crate::qemu::keep_image_from(&dir, "rehost-broken", name)
+}
+
+/// Runs the engine on `elf` with `args`; its exit status.
+pub fn run_engine(engine: &Path, board: &str, elf: &Path, args: &[String]) -> Result<i32, String> {
+    let status = Command::new(engine)
+        .current_dir(crate::workspace())
+        .args(["--board", board, "--elf"])
+        .arg(elf)
+        .args(args)
+        .status()
+        .map_err(|e| format!("{}: {e}", engine.display()))?;
+    Ok(status.code().unwrap_or(1))
+}
