@@ -4,6 +4,8 @@
 //! reserved bit written, a clock above its limit), stops the run.
 
 use crate::clocks::Clocks;
+use crate::link::Link;
+use crate::wiring::Wiring;
 
 /// Why a model refused an access: the rule it breaks, in the chip's words.
 pub type Refusal = String;
@@ -17,6 +19,61 @@ pub struct Cx<'a> {
     pub clocks: &'a mut Clocks,
     /// Interrupt lines raised by this access (the NVIC's numbering).
     pub raise: &'a mut Vec<u32>,
+    /// Pins and system configuration, as GPIO and SYSCFG set them.
+    pub wiring: &'a mut Wiring,
+    /// The Ethernet wire.
+    pub link: &'a mut Link,
+    /// Memory as a DMA master sees it.
+    pub dma: &'a mut dyn Dma,
+}
+
+/// Memory as a bus master other than the core sees it (the Ethernet
+/// DMA): the machine refuses an address the master cannot reach on the
+/// chip's bus matrix, and a write into memory the data cache may hold.
+pub trait Dma {
+    fn read(&mut self, addr: u32, buf: &mut [u8]) -> Result<(), Refusal>;
+    fn write(&mut self, addr: u32, data: &[u8]) -> Result<(), Refusal>;
+}
+
+/// No DMA (the models' unit tests, the reset state).
+pub struct NoDma;
+
+/// A `NoDma` to lend to a context (zero-sized: leaking it costs nothing).
+pub fn no_dma() -> &'static mut NoDma {
+    Box::leak(Box::new(NoDma))
+}
+
+impl Dma for NoDma {
+    fn read(&mut self, addr: u32, _: &mut [u8]) -> Result<(), Refusal> {
+        Err(format!("no DMA memory here ({addr:#010x})"))
+    }
+    fn write(&mut self, addr: u32, _: &[u8]) -> Result<(), Refusal> {
+        Err(format!("no DMA memory here ({addr:#010x})"))
+    }
+}
+
+/// What the models share besides the core: the clock tree, the lines they
+/// raise, the wiring and the wire.
+#[derive(Debug, Default)]
+pub struct Shared {
+    pub clocks: Clocks,
+    pub raised: Vec<u32>,
+    pub wiring: Wiring,
+    pub link: Link,
+}
+
+impl Shared {
+    /// The context of one access at `now`.
+    pub fn cx<'a>(&'a mut self, now: u64, dma: &'a mut dyn Dma) -> Cx<'a> {
+        Cx {
+            now,
+            clocks: &mut self.clocks,
+            raise: &mut self.raised,
+            wiring: &mut self.wiring,
+            link: &mut self.link,
+            dma,
+        }
+    }
 }
 
 /// One peripheral's registers.

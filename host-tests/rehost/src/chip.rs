@@ -38,6 +38,11 @@ pub struct Chip {
     /// The factory-programmed unique ID (96 bits) and flash size (KiB).
     pub uid_base: u32,
     pub flash_size_base: u32,
+    /// Memory the Ethernet DMA reaches on the bus matrix (RM0410 §2.1
+    /// Figure 1; RM0433 §2.1 Figure 1: not the H743's TCMs).
+    pub eth_dma_reaches: &'static [(u32, u32)],
+    /// Memory the core's caches never hold (the TCMs).
+    pub tightly_coupled: &'static [(u32, u32)],
 }
 
 const fn rom(name: &'static str, base: u32, size: u32) -> Memory {
@@ -80,6 +85,9 @@ pub const STM32F767ZI: Chip = Chip {
     boot: 0x0800_0000,
     uid_base: 0x1FF0_F420,
     flash_size_base: 0x1FF0_F442,
+    // The DTCM through the core's AHBS port, SRAM1, SRAM2.
+    eth_dma_reaches: &[(0x2000_0000, 0x2008_0000)],
+    tightly_coupled: &[(0x0000_0000, 0x0000_4000), (0x2000_0000, 0x2002_0000)],
 };
 
 /// STM32H743ZI: 2 MiB of flash in two banks, the TCMs, the AXI SRAM (D1),
@@ -105,6 +113,13 @@ pub const STM32H743ZI: Chip = Chip {
     boot: 0x0800_0000,
     uid_base: 0x1FF1_E800,
     flash_size_base: 0x1FF1_E880,
+    // AXI SRAM (D1), SRAM1-3 (D2), SRAM4 (D3); never the TCMs.
+    eth_dma_reaches: &[
+        (0x2400_0000, 0x2408_0000),
+        (0x3000_0000, 0x3004_8000),
+        (0x3800_0000, 0x3801_0000),
+    ],
+    tightly_coupled: &[(0x0000_0000, 0x0001_0000), (0x2000_0000, 0x2002_0000)],
 };
 
 impl Chip {

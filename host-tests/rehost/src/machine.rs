@@ -7,7 +7,7 @@
 //! write a model refuses stops the run; [`Stop`] says where (the address,
 //! the PC and the function the PC is in) and by which rule.
 
-use crate::bus::{Bus, Cx};
+use crate::bus::{Bus, Dma, Refusal, Shared};
 use crate::chip::{Access, Chip};
 use crate::clocks::Clocks;
 use crate::exceptions::{self, Active, HARD_FAULT};
@@ -55,14 +55,13 @@ pub struct State {
     pub image: Rc<Image>,
     pub bus: Bus,
     pub scs: Scs,
-    pub clocks: Clocks,
+    /// What the models share: clocks, raised lines, wiring, the wire.
+    pub shared: Shared,
     /// Retired instructions (= core cycles).
     pub now: u64,
     /// The run ends when `now` reaches this.
     pub deadline: u64,
     pub stop: Option<Stop>,
-    /// Interrupt lines raised by models since the last look.
-    pub raised: Vec<u32>,
     /// The exceptions being handled.
     pub active: Active,
     pub exceptions_taken: u64,
@@ -85,17 +84,13 @@ pub struct State {
 impl State {
     /// Brings every model up to `now` and pends the lines they raise.
     pub fn advance_models(&mut self) -> Result<(), String> {
-        let mut cx = Cx {
-            now: self.now,
-            clocks: &mut self.clocks,
-            raise: &mut self.raised,
-        };
+        let mut cx = self.shared.cx(self.now, crate::bus::no_dma());
         for b in &mut self.bus.blocks {
             b.model
                 .advance(&mut cx)
                 .map_err(|rule| format!("{}: {rule}", b.model.name()))?;
         }
-        for irq in self.raised.drain(..) {
+        for irq in self.shared.raised.drain(..) {
             if let Some(p) = self.scs.pending.get_mut(irq as usize) {
                 *p = true;
             }
@@ -131,11 +126,14 @@ impl Machine {
             image: image.clone(),
             bus,
             scs: Scs::new(),
-            clocks,
+            shared: Shared {
+                clocks,
+                link: crate::link::Link::nucleo(),
+                ..Shared::default()
+            },
             now: 0,
             deadline: u64::MAX,
             stop: None,
-            raised: Vec::new(),
             block_sizes: std::collections::HashMap::new(),
             reached: false,
             active: Active::default(),
@@ -467,12 +465,16 @@ fn install_instruction_hooks(
 
 fn bus_read(uc: &mut Unicorn<State>, addr: u64, size: usize) -> u64 {
     let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
-    let s = uc.get_data_mut();
-    let result = access(s, addr, size as u32, None);
-    match result {
-        Ok(v) => u64::from(v),
+    match access(uc, addr, size as u32, None) {
+        Ok(v) => {
+            let s = uc.get_data_mut();
+            if !s.shared.raised.is_empty() {
+                s.deadline = s.now;
+            }
+            u64::from(v)
+        }
         Err(rule) => {
-            s.refuse(rule, Some(addr), pc);
+            uc.get_data_mut().refuse(rule, Some(addr), pc);
             let _ = uc.emu_stop();
             0
         }
@@ -481,35 +483,68 @@ fn bus_read(uc: &mut Unicorn<State>, addr: u64, size: usize) -> u64 {
 
 fn bus_write(uc: &mut Unicorn<State>, addr: u64, size: usize, value: u64) {
     let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
-    let s = uc.get_data_mut();
-    if let Err(rule) = access(s, addr, size as u32, Some(value as u32)) {
-        s.refuse(rule, Some(addr), pc);
+    if let Err(rule) = access(uc, addr, size as u32, Some(value as u32)) {
+        uc.get_data_mut().refuse(rule, Some(addr), pc);
         let _ = uc.emu_stop();
-    } else if addr >= PPB.0 || !s.raised.is_empty() {
-        // The NVIC or a line changed: an exception may be due now. Not
-        // emu_stop here: inside an MMIO callback it leaves the PC on the
-        // store, which would run again; the block hook stops at the next
-        // block instead.
-        s.deadline = s.now;
+    } else {
+        let s = uc.get_data_mut();
+        if addr >= PPB.0 || !s.shared.raised.is_empty() {
+            // The NVIC or a line changed: an exception may be due now. Not
+            // emu_stop here: inside an MMIO callback it leaves the PC on
+            // the store, which would run again; the block hook stops at
+            // the next block instead.
+            s.deadline = s.now;
+        }
     }
 }
 
-/// One access to a peripheral or the system control space.
-fn access(s: &mut State, addr: u64, size: u32, write: Option<u32>) -> Result<u32, String> {
+/// One access to a peripheral or the system control space. The bus and
+/// the shared state are taken out of the machine for the access, so that
+/// a model's DMA can reach the chip's memory through unicorn.
+fn access(
+    uc: &mut Unicorn<State>,
+    addr: u64,
+    size: u32,
+    write: Option<u32>,
+) -> Result<u32, String> {
     let a = addr as u32;
-    let mut cx = Cx {
-        now: s.now,
-        clocks: &mut s.clocks,
-        raise: &mut s.raised,
-    };
     let kind = if write.is_some() { "write" } else { "read" };
-    let Some((block, offset)) = s.bus.find(a) else {
-        if addr >= PPB.0 {
-            return match write {
-                Some(v) => s.scs.write(a, size, v, &mut cx).map(|()| 0),
-                None => s.scs.read(a, size, &mut cx),
-            };
+    let s = uc.get_data_mut();
+    if s.bus.find(a).is_none() {
+        if addr < PPB.0 {
+            return Err(format!(
+                "a {size}-byte {kind} that no memory or model claims"
+            ));
         }
+        let mut cx = s.shared.cx(s.now, crate::bus::no_dma());
+        return match write {
+            Some(v) => s.scs.write(a, size, v, &mut cx).map(|()| 0),
+            None => s.scs.read(a, size, &mut cx),
+        };
+    }
+    let mut bus = std::mem::take(&mut s.bus);
+    let mut shared = std::mem::take(&mut s.shared);
+    let now = s.now;
+    let result = {
+        let mut dma = UcDma { uc: &mut *uc };
+        let mut cx = shared.cx(now, &mut dma);
+        block_access(&mut bus, &mut cx, a, size, write)
+    };
+    let s = uc.get_data_mut();
+    s.bus = bus;
+    s.shared = shared;
+    result
+}
+
+fn block_access(
+    bus: &mut Bus,
+    cx: &mut crate::bus::Cx,
+    a: u32,
+    size: u32,
+    write: Option<u32>,
+) -> Result<u32, String> {
+    let kind = if write.is_some() { "write" } else { "read" };
+    let Some((block, offset)) = bus.find(a) else {
         return Err(format!(
             "a {size}-byte {kind} that no memory or model claims"
         ));
@@ -517,22 +552,117 @@ fn access(s: &mut State, addr: u64, size: u32, write: Option<u32>) -> Result<u32
     let name = block.model.name();
     if let Some(clock) = block.clock {
         if !cx.clocks.enabled.contains(&clock) {
-            return Err(format!("{name} {kind} at offset {offset:#x} with its clock off (RCC enable bit for {clock} clear): silicon ignores it"));
+            return Err(format!(
+                "{name} {kind} at offset {offset:#x} with its clock off (RCC enable bit for {clock} clear): silicon ignores it"
+            ));
         }
     }
     block
         .model
-        .advance(&mut cx)
+        .advance(cx)
         .map_err(|rule| format!("{name}: {rule}"))?;
     let result = match write {
-        Some(v) => block.model.write(offset, size, v, &mut cx).map(|()| 0),
-        None => block.model.read(offset, size, &mut cx),
+        Some(v) => block.model.write(offset, size, v, cx).map(|()| 0),
+        None => block.model.read(offset, size, cx),
     };
     result.map_err(|rule| {
         if rule.starts_with(name) {
             rule
         } else {
             format!("{name}: {rule}")
+        }
+    })
+}
+
+/// The chip's memory as the Ethernet DMA sees it: only what the bus
+/// matrix connects it to, and never memory the data cache may hold while
+/// the cache is on (the core would read stale data, or the DMA would).
+struct UcDma<'u, 'a> {
+    uc: &'u mut Unicorn<'a, State>,
+}
+
+impl UcDma<'_, '_> {
+    fn check(&self, addr: u32, len: usize, what: &str) -> Result<(), Refusal> {
+        let s = self.uc.get_data();
+        let end = u64::from(addr) + len as u64;
+        let reach = s
+            .chip
+            .eth_dma_reaches
+            .iter()
+            .any(|&(lo, hi)| u64::from(addr) >= u64::from(lo) && end <= u64::from(hi));
+        if !reach {
+            let mem = s
+                .chip
+                .memory_at(u64::from(addr))
+                .map_or("no memory", |m| m.name);
+            return Err(format!(
+                "the Ethernet DMA {what} {addr:#010x}..+{len} ({mem}), which it cannot reach on {}'s bus matrix",
+                s.chip.name
+            ));
+        }
+        if let Some(region) = cacheable(s, addr) {
+            return Err(format!(
+                "the Ethernet DMA {what} {addr:#010x}..+{len}, which the data cache may hold ({region}): make it non-cacheable in the MPU"
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Dma for UcDma<'_, '_> {
+    fn read(&mut self, addr: u32, buf: &mut [u8]) -> Result<(), Refusal> {
+        self.check(addr, buf.len(), "reads")?;
+        self.uc
+            .mem_read(u64::from(addr), buf)
+            .map_err(|e| format!("DMA read at {addr:#010x}: {e:?}"))
+    }
+    fn write(&mut self, addr: u32, data: &[u8]) -> Result<(), Refusal> {
+        self.check(addr, data.len(), "writes")?;
+        self.uc
+            .mem_write(u64::from(addr), data)
+            .map_err(|e| format!("DMA write at {addr:#010x}: {e:?}"))
+    }
+}
+
+/// Why `addr` may be in the data cache, if it may: the D-cache on
+/// (CCR.DC) and the address cacheable by the MPU region that covers it,
+/// or by the default memory map (ARMv7-M B3.1, Table B3-1: SRAM and
+/// external RAM write-back) where no region does. The TCMs are never
+/// cached.
+fn cacheable(s: &State, addr: u32) -> Option<String> {
+    if s.scs.ccr & (1 << 16) == 0 {
+        return None;
+    }
+    if s.chip
+        .tightly_coupled
+        .iter()
+        .any(|&(lo, hi)| addr >= lo && addr < hi)
+    {
+        return None;
+    }
+    let a = u64::from(addr);
+    let mpu_on = s.scs.mpu_ctrl & 1 != 0;
+    if mpu_on {
+        if let Some((i, r)) = s
+            .scs
+            .mpu
+            .iter()
+            .enumerate()
+            .rev()
+            .find(|(_, r)| r.range().is_some_and(|(lo, hi)| a >= lo && a < hi))
+        {
+            return r
+                .cacheable()
+                .then(|| format!("MPU region {i} is cacheable"));
+        }
+    }
+    let default_cached =
+        (0x2000_0000..0x4000_0000).contains(&addr) || (0x6000_0000..0xA000_0000).contains(&addr);
+    default_cached.then(|| {
+        if mpu_on {
+            "no MPU region covers it: the default map caches it".to_string()
+        } else {
+            "the MPU is off: the default map caches it".to_string()
         }
     })
 }

@@ -40,12 +40,9 @@ pub fn bus() -> (Bus, Clocks) {
         apb_hz: [rcc::HSI_HZ, rcc::HSI_HZ, 0, 0],
         ..Clocks::default()
     };
-    let mut raise = Vec::new();
-    let mut cx = crate::bus::Cx {
-        now: 0,
-        clocks: &mut clocks,
-        raise: &mut raise,
-    };
+    let mut shared = crate::bus::Shared::default();
+    let mut cx = shared.cx(0, crate::bus::no_dma());
+    cx.clocks = &mut clocks;
     // The limits at reset (scale 1, no over-drive), from PWR's reset value.
     let _ = crate::bus::Peripheral::advance(&mut power::Pwr::new(), &mut cx);
     (bus, clocks)

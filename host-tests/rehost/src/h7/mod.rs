@@ -26,12 +26,9 @@ pub fn bus() -> (Bus, Clocks) {
         flash_wrhighfreq: 3,
         ..Clocks::default()
     };
-    let mut raise = Vec::new();
-    let mut cx = crate::bus::Cx {
-        now: 0,
-        clocks: &mut clocks,
-        raise: &mut raise,
-    };
+    let mut shared = crate::bus::Shared::default();
+    let mut cx = shared.cx(0, crate::bus::no_dma());
+    cx.clocks = &mut clocks;
     // The limits at reset (scale 3), from PWR's reset value.
     let _ = crate::bus::Peripheral::advance(&mut power::Pwr::new(), &mut cx);
     (bus, clocks)
@@ -42,7 +39,7 @@ pub fn bus() -> (Bus, Clocks) {
 #[cfg(test)]
 pub(crate) mod testing {
     use super::rcc::{Rcc, HSE_US, HSI_HZ, PLL_LOCK_US};
-    use crate::bus::{Cx, Peripheral, Refusal};
+    use crate::bus::{Peripheral, Refusal};
     use crate::clocks::Clocks;
 
     // RCC offsets and RCC_CR bits (RM0433 §8.7).
@@ -62,12 +59,9 @@ pub(crate) mod testing {
         offset: u32,
         write: Option<u32>,
     ) -> Result<u32, Refusal> {
-        let mut raise = Vec::new();
-        let mut cx = Cx {
-            now,
-            clocks,
-            raise: &mut raise,
-        };
+        let mut shared = crate::bus::Shared::default();
+        let mut cx = shared.cx(now, crate::bus::no_dma());
+        cx.clocks = clocks;
         model.advance(&mut cx)?;
         match write {
             Some(v) => model.write(offset, 4, v, &mut cx).map(|()| 0),
