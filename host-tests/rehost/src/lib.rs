@@ -2,16 +2,23 @@
 //! Cortex-M7, with a strict register-level model of their chip. See
 //! `host-tests/rehost/README.md` for what is modelled and what is not.
 
+pub mod access;
+pub mod bridge;
 pub mod bus;
 pub mod chip;
 pub mod clocks;
 pub mod exceptions;
 pub mod f7;
+pub mod gpio;
 pub mod h7;
 pub mod image;
+pub mod iwdg;
 pub mod link;
 pub mod machine;
+pub mod rng;
+pub mod rtt;
 pub mod scs;
 pub mod simple;
+pub mod syscfg;
 pub mod timer;
 pub mod wiring;

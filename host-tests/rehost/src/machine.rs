@@ -7,7 +7,8 @@
 //! write a model refuses stops the run; [`Stop`] says where (the address,
 //! the PC and the function the PC is in) and by which rule.
 
-use crate::bus::{Bus, Dma, Refusal, Shared};
+use crate::access::{bus_read, bus_write};
+use crate::bus::{Bus, Shared};
 use crate::chip::{Access, Chip};
 use crate::clocks::Clocks;
 use crate::exceptions::{self, Active, HARD_FAULT};
@@ -19,7 +20,7 @@ use unicorn_engine::{Arch, ArmCpuModel, HookType, MemType, Mode, Prot, RegisterA
 /// Where the peripherals are: one window for the chip's buses (APB, AHB,
 /// and on the H7 the D3 domain) and the core's private peripheral bus.
 const PERIPHERALS: (u64, u64) = (0x4000_0000, 0x2000_0000);
-const PPB: (u64, u64) = (0xE000_0000, 0x10_0000);
+pub(crate) const PPB: (u64, u64) = (0xE000_0000, 0x10_0000);
 
 /// Why the run stopped.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -99,7 +100,7 @@ impl State {
     }
 
     /// Records the first stop; later ones are consequences of it.
-    fn refuse(&mut self, rule: String, addr: Option<u64>, pc: u64) {
+    pub(crate) fn refuse(&mut self, rule: String, addr: Option<u64>, pc: u64) {
         if self.stop.is_none() {
             self.stop = Some(Stop {
                 rule,
@@ -115,6 +116,21 @@ impl State {
 /// The emulated chip with its image.
 pub struct Machine {
     pub uc: Unicorn<'static, State>,
+    /// The host's side of the wire, when the device is reached from
+    /// outside.
+    pub bridge: Option<crate::bridge::Bridge>,
+    /// The image's defmt log.
+    pub rtt: Option<crate::rtt::Rtt>,
+    /// Log lines read and not yet taken by [`Machine::take_log`].
+    pub log: Vec<String>,
+    /// Pace virtual time to the wall clock (outside clients); `false`:
+    /// deterministic, no wall clock at all.
+    pub paced: bool,
+    /// Virtual time in nanoseconds (cycles at the core clock of their
+    /// time), and the cycle it was last brought up to.
+    pub time_ns: u128,
+    time_at: u64,
+    started: std::time::Instant,
 }
 
 impl Machine {
@@ -289,7 +305,16 @@ impl Machine {
             .map_err(e("SP"))?;
         uc.reg_write(RegisterARM::PC, u64::from(reset & !1))
             .map_err(e("PC"))?;
-        Ok(Machine { uc })
+        Ok(Machine {
+            uc,
+            bridge: None,
+            rtt: None,
+            log: Vec::new(),
+            paced: false,
+            time_ns: 0,
+            time_at: 0,
+            started: std::time::Instant::now(),
+        })
     }
 
     /// Runs until a stop or `cycles` more cycles.
@@ -300,6 +325,8 @@ impl Machine {
                 let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
                 self.uc.get_data_mut().refuse(rule, None, pc);
             }
+            self.outside();
+            let slice = self.slice();
             let s = self.uc.get_data_mut();
             if let Some(stop) = &s.stop {
                 return Some(stop.clone());
@@ -307,9 +334,14 @@ impl Machine {
             if s.now >= deadline {
                 return None;
             }
-            // Run until the next thing a model has to do by itself.
+            if s.sleeping.is_some() {
+                // Still asleep at the end of a slice (the bridge's turn).
+                continue;
+            }
+            // Run until the next thing a model has to do by itself, or the
+            // end of the slice.
             let next = s.bus.next_event(s.now).unwrap_or(u64::MAX);
-            s.deadline = deadline.min(next.max(s.now + 1));
+            s.deadline = deadline.min(next.max(s.now + 1)).min(s.now + slice);
             let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
             let result = self.uc.emu_start(pc | 1, 0, 0, 0);
             let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
@@ -322,10 +354,58 @@ impl Machine {
         }
     }
 
+    /// How many cycles run before the outside gets its turn: a
+    /// millisecond of virtual time with a bridge, else unbounded.
+    fn slice(&self) -> u64 {
+        if self.bridge.is_some() {
+            (self.uc.get_data().shared.clocks.core_hz / 1000).max(1000)
+        } else {
+            u64::MAX / 4
+        }
+    }
+
+    /// The outside's turn: virtual time brought up to date, the log read,
+    /// the bridge polled, and in paced runs the wall clock waited for.
+    fn outside(&mut self) {
+        let (now, hz) = {
+            let s = self.uc.get_data();
+            (s.now, s.shared.clocks.core_hz.max(1))
+        };
+        self.time_ns += u128::from(now - self.time_at) * 1_000_000_000 / u128::from(hz);
+        self.time_at = now;
+        if let Some(rtt) = &mut self.rtt {
+            let lines = rtt.lines(&mut self.uc);
+            self.log.extend(lines);
+        }
+        if let Some(bridge) = &mut self.bridge {
+            let us = (self.time_ns / 1000) as u64;
+            let s = self.uc.get_data_mut();
+            bridge.poll(&mut s.shared.link, us);
+            if !s.shared.link.to_device.is_empty() {
+                // Frames for the MAC: it takes them at its next advance.
+                s.deadline = s.now;
+            }
+        }
+        if self.paced {
+            let wall = self.started.elapsed().as_nanos();
+            if self.time_ns > wall {
+                std::thread::sleep(std::time::Duration::from_nanos(
+                    ((self.time_ns - wall) as u64).min(20_000_000),
+                ));
+            }
+        }
+    }
+
+    /// The log lines read since the last call.
+    pub fn take_log(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.log)
+    }
+
     /// What happens between two slices of execution: an exception
     /// return, a fault, sleep until the next event, time moved on for
     /// every model, and the pending exceptions taken.
     fn between_slices(&mut self, deadline: u64) -> Result<(), String> {
+        let slice = self.slice();
         let uc = &mut self.uc;
         if let Some(ret) = uc.get_data_mut().exception_return.take() {
             exceptions::leave(uc, ret)?;
@@ -361,7 +441,9 @@ impl Machine {
                             + " with no interrupt pending, enabled or due: the core sleeps forever");
                     };
                     let t = t.max(s.now + 1);
-                    if t >= deadline {
+                    let horizon = deadline.min(s.now.saturating_add(slice));
+                    if t >= horizon {
+                        let deadline = horizon;
                         s.slept += deadline.saturating_sub(s.now);
                         s.now = deadline;
                         // Resume at the sleep instruction next time.
@@ -461,210 +543,6 @@ fn install_instruction_hooks(
         .map_err(|e| format!("unicorn: CPSIE hook: {e:?}"))?;
     }
     Ok(())
-}
-
-fn bus_read(uc: &mut Unicorn<State>, addr: u64, size: usize) -> u64 {
-    let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
-    match access(uc, addr, size as u32, None) {
-        Ok(v) => {
-            let s = uc.get_data_mut();
-            if !s.shared.raised.is_empty() {
-                s.deadline = s.now;
-            }
-            u64::from(v)
-        }
-        Err(rule) => {
-            uc.get_data_mut().refuse(rule, Some(addr), pc);
-            let _ = uc.emu_stop();
-            0
-        }
-    }
-}
-
-fn bus_write(uc: &mut Unicorn<State>, addr: u64, size: usize, value: u64) {
-    let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
-    if let Err(rule) = access(uc, addr, size as u32, Some(value as u32)) {
-        uc.get_data_mut().refuse(rule, Some(addr), pc);
-        let _ = uc.emu_stop();
-    } else {
-        let s = uc.get_data_mut();
-        if addr >= PPB.0 || !s.shared.raised.is_empty() {
-            // The NVIC or a line changed: an exception may be due now. Not
-            // emu_stop here: inside an MMIO callback it leaves the PC on
-            // the store, which would run again; the block hook stops at
-            // the next block instead.
-            s.deadline = s.now;
-        }
-    }
-}
-
-/// One access to a peripheral or the system control space. The bus and
-/// the shared state are taken out of the machine for the access, so that
-/// a model's DMA can reach the chip's memory through unicorn.
-fn access(
-    uc: &mut Unicorn<State>,
-    addr: u64,
-    size: u32,
-    write: Option<u32>,
-) -> Result<u32, String> {
-    let a = addr as u32;
-    let kind = if write.is_some() { "write" } else { "read" };
-    let s = uc.get_data_mut();
-    if s.bus.find(a).is_none() {
-        if addr < PPB.0 {
-            return Err(format!(
-                "a {size}-byte {kind} that no memory or model claims"
-            ));
-        }
-        let mut cx = s.shared.cx(s.now, crate::bus::no_dma());
-        return match write {
-            Some(v) => s.scs.write(a, size, v, &mut cx).map(|()| 0),
-            None => s.scs.read(a, size, &mut cx),
-        };
-    }
-    let mut bus = std::mem::take(&mut s.bus);
-    let mut shared = std::mem::take(&mut s.shared);
-    let now = s.now;
-    let result = {
-        let mut dma = UcDma { uc: &mut *uc };
-        let mut cx = shared.cx(now, &mut dma);
-        block_access(&mut bus, &mut cx, a, size, write)
-    };
-    let s = uc.get_data_mut();
-    s.bus = bus;
-    s.shared = shared;
-    result
-}
-
-fn block_access(
-    bus: &mut Bus,
-    cx: &mut crate::bus::Cx,
-    a: u32,
-    size: u32,
-    write: Option<u32>,
-) -> Result<u32, String> {
-    let kind = if write.is_some() { "write" } else { "read" };
-    let Some((block, offset)) = bus.find(a) else {
-        return Err(format!(
-            "a {size}-byte {kind} that no memory or model claims"
-        ));
-    };
-    let name = block.model.name();
-    if let Some(clock) = block.clock {
-        if !cx.clocks.enabled.contains(&clock) {
-            return Err(format!(
-                "{name} {kind} at offset {offset:#x} with its clock off (RCC enable bit for {clock} clear): silicon ignores it"
-            ));
-        }
-    }
-    block
-        .model
-        .advance(cx)
-        .map_err(|rule| format!("{name}: {rule}"))?;
-    let result = match write {
-        Some(v) => block.model.write(offset, size, v, cx).map(|()| 0),
-        None => block.model.read(offset, size, cx),
-    };
-    result.map_err(|rule| {
-        if rule.starts_with(name) {
-            rule
-        } else {
-            format!("{name}: {rule}")
-        }
-    })
-}
-
-/// The chip's memory as the Ethernet DMA sees it: only what the bus
-/// matrix connects it to, and never memory the data cache may hold while
-/// the cache is on (the core would read stale data, or the DMA would).
-struct UcDma<'u, 'a> {
-    uc: &'u mut Unicorn<'a, State>,
-}
-
-impl UcDma<'_, '_> {
-    fn check(&self, addr: u32, len: usize, what: &str) -> Result<(), Refusal> {
-        let s = self.uc.get_data();
-        let end = u64::from(addr) + len as u64;
-        let reach = s
-            .chip
-            .eth_dma_reaches
-            .iter()
-            .any(|&(lo, hi)| u64::from(addr) >= u64::from(lo) && end <= u64::from(hi));
-        if !reach {
-            let mem = s
-                .chip
-                .memory_at(u64::from(addr))
-                .map_or("no memory", |m| m.name);
-            return Err(format!(
-                "the Ethernet DMA {what} {addr:#010x}..+{len} ({mem}), which it cannot reach on {}'s bus matrix",
-                s.chip.name
-            ));
-        }
-        if let Some(region) = cacheable(s, addr) {
-            return Err(format!(
-                "the Ethernet DMA {what} {addr:#010x}..+{len}, which the data cache may hold ({region}): make it non-cacheable in the MPU"
-            ));
-        }
-        Ok(())
-    }
-}
-
-impl Dma for UcDma<'_, '_> {
-    fn read(&mut self, addr: u32, buf: &mut [u8]) -> Result<(), Refusal> {
-        self.check(addr, buf.len(), "reads")?;
-        self.uc
-            .mem_read(u64::from(addr), buf)
-            .map_err(|e| format!("DMA read at {addr:#010x}: {e:?}"))
-    }
-    fn write(&mut self, addr: u32, data: &[u8]) -> Result<(), Refusal> {
-        self.check(addr, data.len(), "writes")?;
-        self.uc
-            .mem_write(u64::from(addr), data)
-            .map_err(|e| format!("DMA write at {addr:#010x}: {e:?}"))
-    }
-}
-
-/// Why `addr` may be in the data cache, if it may: the D-cache on
-/// (CCR.DC) and the address cacheable by the MPU region that covers it,
-/// or by the default memory map (ARMv7-M B3.1, Table B3-1: SRAM and
-/// external RAM write-back) where no region does. The TCMs are never
-/// cached.
-fn cacheable(s: &State, addr: u32) -> Option<String> {
-    if s.scs.ccr & (1 << 16) == 0 {
-        return None;
-    }
-    if s.chip
-        .tightly_coupled
-        .iter()
-        .any(|&(lo, hi)| addr >= lo && addr < hi)
-    {
-        return None;
-    }
-    let a = u64::from(addr);
-    let mpu_on = s.scs.mpu_ctrl & 1 != 0;
-    if mpu_on {
-        if let Some((i, r)) = s
-            .scs
-            .mpu
-            .iter()
-            .enumerate()
-            .rev()
-            .find(|(_, r)| r.range().is_some_and(|(lo, hi)| a >= lo && a < hi))
-        {
-            return r
-                .cacheable()
-                .then(|| format!("MPU region {i} is cacheable"));
-        }
-    }
-    let default_cached =
-        (0x2000_0000..0x4000_0000).contains(&addr) || (0x6000_0000..0xA000_0000).contains(&addr);
-    default_cached.then(|| {
-        if mpu_on {
-            "no MPU region covers it: the default map caches it".to_string()
-        } else {
-            "the MPU is off: the default map caches it".to_string()
-        }
-    })
 }
 
 /// Thumb-2 instructions in a run of code: a half-word whose top five bits

@@ -26,6 +26,22 @@ pub fn bus() -> (Bus, Clocks) {
     bus.add(0x4002_3C00, 0x400, None, power::Flash::new());
     bus.add(0x4000_7000, 0x400, Some("PWR"), power::Pwr::new());
     bus.add(0xE004_2000, 0x400, None, Plain::new("DBGMCU", DBGMCU));
+    crate::gpio::ports(
+        &mut bus,
+        0x4002_0000,
+        'K',
+        crate::gpio::F7_A,
+        crate::gpio::F7_B,
+        crate::gpio::F7_OTHER,
+    );
+    bus.add(
+        0x4001_3800,
+        0x400,
+        Some("SYSCFG"),
+        crate::syscfg::Syscfg::new(crate::syscfg::Kind::F7),
+    );
+    bus.add(0x5006_0800, 0x400, Some("RNG"), crate::rng::Rng::new());
+    bus.add(0x4000_3000, 0x400, None, crate::iwdg::Iwdg::new("IWDG"));
     // TIM12: the timer embassy-time's driver takes on this chip (IRQ 43,
     // TIM8_BRK_TIM12; RM0410 Table 46).
     bus.add(

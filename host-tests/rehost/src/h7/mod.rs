@@ -6,7 +6,20 @@
 pub mod power;
 pub mod rcc;
 
-use crate::bus::Bus;
+use crate::bus::{reg, Bus, Reg};
+use crate::simple::Plain;
+
+/// DBGMCU (RM0433 §60.5.8): the device ID (0x450, revision V 0x2003)
+/// and the debug configuration and freeze bits.
+const DBGMCU: &[Reg] = &[
+    reg(0x00, "IDC", 0x2003_6450, 0, 0xFFFF_0FFF),
+    reg(0x04, "CR", 0, 0x0070_0007, 0),
+    reg(0x34, "APB3FZ1", 0, 0x0000_0040, 0),
+    reg(0x3C, "APB1LFZ1", 0, 0x00E0_03FF, 0),
+    reg(0x44, "APB1HFZ1", 0, 0x0000_0020, 0),
+    reg(0x4C, "APB2FZ1", 0, 0x2007_0003, 0),
+    reg(0x54, "APB4FZ1", 0, 0x0004_1F80, 0),
+];
 use crate::clocks::Clocks;
 
 /// The chip's peripheral blocks and its clocks at reset: the HSI's 64 MHz
@@ -18,6 +31,31 @@ pub fn bus() -> (Bus, Clocks) {
     // PWR has no clock enable on the H7: it is always clocked.
     bus.add(0x5802_4800, 0x400, None, power::Pwr::new());
     bus.add(0x5200_2000, 0x1000, None, power::Flash::new());
+    bus.add(0x5C00_1000, 0x400, None, Plain::new("DBGMCU", DBGMCU));
+    crate::gpio::ports(
+        &mut bus,
+        0x5802_0000,
+        'K',
+        crate::gpio::H7_A,
+        crate::gpio::H7_B,
+        crate::gpio::H7_OTHER,
+    );
+    bus.add(
+        0x5800_0400,
+        0x400,
+        Some("SYSCFG"),
+        crate::syscfg::Syscfg::new(crate::syscfg::Kind::H7),
+    );
+    bus.add(0x4802_1800, 0x400, Some("RNG"), crate::rng::Rng::new());
+    bus.add(0x5800_4800, 0x400, None, crate::iwdg::Iwdg::new("IWDG1"));
+    // TIM12: the timer embassy-time's driver takes on this chip (IRQ 43,
+    // TIM8_BRK_TIM12; RM0433 Table 147).
+    bus.add(
+        0x4000_1800,
+        0x400,
+        Some("TIM12"),
+        crate::timer::Timer::new("TIM12", crate::timer::TIM9_12, 43, 0),
+    );
     let mut clocks = Clocks {
         core_hz: rcc::HSI_HZ,
         hclk_hz: rcc::HSI_HZ,

@@ -118,7 +118,7 @@ pub const ENABLES: &[(&str, u32, u32)] = &[
     ("GPIOE", 0xE0, 4), ("GPIOF", 0xE0, 5), ("GPIOG", 0xE0, 6), ("GPIOH", 0xE0, 7),
     ("GPIOI", 0xE0, 8), ("GPIOJ", 0xE0, 9), ("GPIOK", 0xE0, 10), ("CRC", 0xE0, 19),
     ("BKPRAM", 0xE0, 28), ("TIM2", 0xE8, 0), ("TIM3", 0xE8, 1), ("TIM4", 0xE8, 2),
-    ("TIM5", 0xE8, 3), ("UART4", 0xE8, 19), ("SYSCFG", 0xF4, 1),
+    ("TIM5", 0xE8, 3), ("TIM12", 0xE8, 6), ("UART4", 0xE8, 19), ("SYSCFG", 0xF4, 1),
 ];
 
 /// Enable bit, ready bit and start-up time (us) of RCC_CR's oscillators

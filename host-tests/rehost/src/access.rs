@@ -1,0 +1,211 @@
+//! The core's accesses to the peripheral window and the private
+//! peripheral bus, handed to the models; and memory as a model's DMA sees
+//! it, checked against the chip's bus matrix and the data cache.
+
+use crate::bus::{Bus, Dma, Refusal};
+use crate::machine::{State, PPB};
+use unicorn_engine::{RegisterARM, Unicorn};
+
+pub(crate) fn bus_read(uc: &mut Unicorn<State>, addr: u64, size: usize) -> u64 {
+    let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
+    match access(uc, addr, size as u32, None) {
+        Ok(v) => {
+            let s = uc.get_data_mut();
+            if !s.shared.raised.is_empty() {
+                s.deadline = s.now;
+            }
+            u64::from(v)
+        }
+        Err(rule) => {
+            uc.get_data_mut().refuse(rule, Some(addr), pc);
+            let _ = uc.emu_stop();
+            0
+        }
+    }
+}
+
+pub(crate) fn bus_write(uc: &mut Unicorn<State>, addr: u64, size: usize, value: u64) {
+    let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
+    if let Err(rule) = access(uc, addr, size as u32, Some(value as u32)) {
+        uc.get_data_mut().refuse(rule, Some(addr), pc);
+        let _ = uc.emu_stop();
+    } else {
+        let s = uc.get_data_mut();
+        if addr >= PPB.0 || !s.shared.raised.is_empty() {
+            // The NVIC or a line changed: an exception may be due now. Not
+            // emu_stop here: inside an MMIO callback it leaves the PC on
+            // the store, which would run again; the block hook stops at
+            // the next block instead.
+            s.deadline = s.now;
+        }
+    }
+}
+
+/// One access to a peripheral or the system control space. The bus and
+/// the shared state are taken out of the machine for the access, so that
+/// a model's DMA can reach the chip's memory through unicorn.
+fn access(
+    uc: &mut Unicorn<State>,
+    addr: u64,
+    size: u32,
+    write: Option<u32>,
+) -> Result<u32, String> {
+    let a = addr as u32;
+    let kind = if write.is_some() { "write" } else { "read" };
+    let s = uc.get_data_mut();
+    if s.bus.find(a).is_none() {
+        if addr < PPB.0 {
+            return Err(format!(
+                "a {size}-byte {kind} that no memory or model claims"
+            ));
+        }
+        let mut cx = s.shared.cx(s.now, crate::bus::no_dma());
+        return match write {
+            Some(v) => s.scs.write(a, size, v, &mut cx).map(|()| 0),
+            None => s.scs.read(a, size, &mut cx),
+        };
+    }
+    let mut bus = std::mem::take(&mut s.bus);
+    let mut shared = std::mem::take(&mut s.shared);
+    let now = s.now;
+    let result = {
+        let mut dma = UcDma { uc: &mut *uc };
+        let mut cx = shared.cx(now, &mut dma);
+        block_access(&mut bus, &mut cx, a, size, write)
+    };
+    let s = uc.get_data_mut();
+    s.bus = bus;
+    s.shared = shared;
+    result
+}
+
+fn block_access(
+    bus: &mut Bus,
+    cx: &mut crate::bus::Cx,
+    a: u32,
+    size: u32,
+    write: Option<u32>,
+) -> Result<u32, String> {
+    let kind = if write.is_some() { "write" } else { "read" };
+    let Some((block, offset)) = bus.find(a) else {
+        return Err(format!(
+            "a {size}-byte {kind} that no memory or model claims"
+        ));
+    };
+    let name = block.model.name();
+    if let Some(clock) = block.clock {
+        if !cx.clocks.enabled.contains(&clock) {
+            return Err(format!(
+                "{name} {kind} at offset {offset:#x} with its clock off (RCC enable bit for {clock} clear): silicon ignores it"
+            ));
+        }
+    }
+    block
+        .model
+        .advance(cx)
+        .map_err(|rule| format!("{name}: {rule}"))?;
+    let result = match write {
+        Some(v) => block.model.write(offset, size, v, cx).map(|()| 0),
+        None => block.model.read(offset, size, cx),
+    };
+    result.map_err(|rule| {
+        if rule.starts_with(name) {
+            rule
+        } else {
+            format!("{name}: {rule}")
+        }
+    })
+}
+
+/// The chip's memory as the Ethernet DMA sees it: only what the bus
+/// matrix connects it to, and never memory the data cache may hold while
+/// the cache is on (the core would read stale data, or the DMA would).
+struct UcDma<'u, 'a> {
+    uc: &'u mut Unicorn<'a, State>,
+}
+
+impl UcDma<'_, '_> {
+    fn check(&self, addr: u32, len: usize, what: &str) -> Result<(), Refusal> {
+        let s = self.uc.get_data();
+        let end = u64::from(addr) + len as u64;
+        let reach = s
+            .chip
+            .eth_dma_reaches
+            .iter()
+            .any(|&(lo, hi)| u64::from(addr) >= u64::from(lo) && end <= u64::from(hi));
+        if !reach {
+            let mem = s
+                .chip
+                .memory_at(u64::from(addr))
+                .map_or("no memory", |m| m.name);
+            return Err(format!(
+                "the Ethernet DMA {what} {addr:#010x}..+{len} ({mem}), which it cannot reach on {}'s bus matrix",
+                s.chip.name
+            ));
+        }
+        if let Some(region) = cacheable(s, addr) {
+            return Err(format!(
+                "the Ethernet DMA {what} {addr:#010x}..+{len}, which the data cache may hold ({region}): make it non-cacheable in the MPU"
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Dma for UcDma<'_, '_> {
+    fn read(&mut self, addr: u32, buf: &mut [u8]) -> Result<(), Refusal> {
+        self.check(addr, buf.len(), "reads")?;
+        self.uc
+            .mem_read(u64::from(addr), buf)
+            .map_err(|e| format!("DMA read at {addr:#010x}: {e:?}"))
+    }
+    fn write(&mut self, addr: u32, data: &[u8]) -> Result<(), Refusal> {
+        self.check(addr, data.len(), "writes")?;
+        self.uc
+            .mem_write(u64::from(addr), data)
+            .map_err(|e| format!("DMA write at {addr:#010x}: {e:?}"))
+    }
+}
+
+/// Why `addr` may be in the data cache, if it may: the D-cache on
+/// (CCR.DC) and the address cacheable by the MPU region that covers it,
+/// or by the default memory map (ARMv7-M B3.1, Table B3-1: SRAM and
+/// external RAM write-back) where no region does. The TCMs are never
+/// cached.
+fn cacheable(s: &State, addr: u32) -> Option<String> {
+    if s.scs.ccr & (1 << 16) == 0 {
+        return None;
+    }
+    if s.chip
+        .tightly_coupled
+        .iter()
+        .any(|&(lo, hi)| addr >= lo && addr < hi)
+    {
+        return None;
+    }
+    let a = u64::from(addr);
+    let mpu_on = s.scs.mpu_ctrl & 1 != 0;
+    if mpu_on {
+        if let Some((i, r)) = s
+            .scs
+            .mpu
+            .iter()
+            .enumerate()
+            .rev()
+            .find(|(_, r)| r.range().is_some_and(|(lo, hi)| a >= lo && a < hi))
+        {
+            return r
+                .cacheable()
+                .then(|| format!("MPU region {i} is cacheable"));
+        }
+    }
+    let default_cached =
+        (0x2000_0000..0x4000_0000).contains(&addr) || (0x6000_0000..0xA000_0000).contains(&addr);
+    default_cached.then(|| {
+        if mpu_on {
+            "no MPU region covers it: the default map caches it".to_string()
+        } else {
+            "the MPU is off: the default map caches it".to_string()
+        }
+    })
+}

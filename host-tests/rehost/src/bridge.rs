@@ -1,0 +1,490 @@
+//! The host's side of the device's wire, as QEMU's user networking is for
+//! the QEMU board: a virtual host on the device's subnet (the gateway
+//! address, `.1`, or `.2` when the device is `.1`) that forwards the
+//! robot's channel from a 127.0.0.1 port to the device and the replies
+//! back, and TCP connections (the TCP channel, the status page) from
+//! 127.0.0.1 ports to the device's ports. Not libslirp: the bridge lives
+//! in the machine's own loop and virtual time, so a deterministic run
+//! stays deterministic (libslirp keeps its own wall-clock timers).
+//!
+//! UDP is framed here, fragments included (RFC 791: fragments of 1,480
+//! payload bytes, reassembly by identification); TCP and ARP are
+//! smoltcp's.
+
+use crate::link::Link;
+use smoltcp::iface::{Config, Interface, SocketHandle, SocketSet};
+use smoltcp::phy::{Device, DeviceCapabilities, Medium};
+use smoltcp::socket::tcp;
+use smoltcp::time::Instant;
+use smoltcp::wire::{
+    ArpOperation, ArpPacket, EthernetAddress, EthernetFrame, EthernetProtocol, HardwareAddress,
+    IpAddress, IpCidr, IpProtocol, Ipv4Address, Ipv4Packet, UdpPacket,
+};
+use std::collections::{HashMap, VecDeque};
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpListener, TcpStream, UdpSocket};
+
+/// The bridge's own MAC (locally administered).
+const GATEWAY_MAC: [u8; 6] = [0x02, 0x00, 0x00, 0x00, 0x00, 0x01];
+/// The UDP port the robot's messages come from on the device's side.
+pub const ROBOT_PORT: u16 = 6510;
+const MTU: usize = 1500;
+
+/// A TCP forward: a 127.0.0.1 listener and the device port it reaches.
+struct TcpForward {
+    listener: TcpListener,
+    device_port: u16,
+    conns: Vec<TcpConn>,
+}
+
+struct TcpConn {
+    host: TcpStream,
+    socket: SocketHandle,
+    /// Bytes from the host not yet taken by the device's window.
+    to_device: Vec<u8>,
+    host_closed: bool,
+}
+
+/// Counts for the run's summary.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Counts {
+    pub udp_to_device: u64,
+    pub udp_from_device: u64,
+    pub frames_to_device: u64,
+    pub frames_from_device: u64,
+}
+
+pub struct Bridge {
+    iface: Interface,
+    sockets: SocketSet<'static>,
+    gateway: Ipv4Address,
+    device: Ipv4Address,
+    device_mac: Option<EthernetAddress>,
+    udp: Option<(UdpSocket, u16)>,
+    client: Option<SocketAddr>,
+    /// Datagrams for the device waiting for its MAC.
+    waiting: VecDeque<Vec<u8>>,
+    tcp: Vec<TcpForward>,
+    next_port: u16,
+    ip_id: u16,
+    reassembly: HashMap<u16, Vec<(usize, Vec<u8>, bool)>>,
+    /// smoltcp's share of the device's frames, and its frames out.
+    rx: VecDeque<Vec<u8>>,
+    tx: VecDeque<Vec<u8>>,
+    pub counts: Counts,
+}
+
+/// The bridge's address on the device's /24: `.1`, or `.2` when the
+/// device is `.1` (as the QEMU board's user networking does).
+pub fn gateway_for(device: [u8; 4]) -> [u8; 4] {
+    let [a, b, c, d] = device;
+    [a, b, c, if d == 1 { 2 } else { 1 }]
+}
+
+impl Bridge {
+    pub fn new(device: [u8; 4]) -> Bridge {
+        let gateway = gateway_for(device);
+        let mut q = Queues {
+            rx: VecDeque::new(),
+            tx: VecDeque::new(),
+        };
+        let config = Config::new(HardwareAddress::Ethernet(EthernetAddress(GATEWAY_MAC)));
+        let mut iface = Interface::new(config, &mut q, Instant::ZERO);
+        let [a, b, c, d] = gateway;
+        iface.update_ip_addrs(|addrs| {
+            let _ = addrs.push(IpCidr::new(IpAddress::v4(a, b, c, d), 24));
+        });
+        Bridge {
+            iface,
+            sockets: SocketSet::new(vec![]),
+            gateway: Ipv4Address::from_octets(gateway),
+            device: Ipv4Address::from_octets(device),
+            device_mac: None,
+            udp: None,
+            client: None,
+            waiting: VecDeque::new(),
+            tcp: Vec::new(),
+            next_port: 49152,
+            ip_id: 1,
+            reassembly: HashMap::new(),
+            rx: VecDeque::new(),
+            tx: VecDeque::new(),
+            counts: Counts::default(),
+        }
+    }
+
+    /// Forwards UDP datagrams arriving at `listen` to the device's
+    /// `device_port`, and the device's replies back to their sender.
+    pub fn forward_udp(
+        &mut self,
+        listen: SocketAddr,
+        device_port: u16,
+    ) -> Result<SocketAddr, String> {
+        let s = UdpSocket::bind(listen).map_err(|e| format!("udp {listen}: {e}"))?;
+        s.set_nonblocking(true).map_err(|e| e.to_string())?;
+        let local = s.local_addr().map_err(|e| e.to_string())?;
+        self.udp = Some((s, device_port));
+        Ok(local)
+    }
+
+    /// Forwards TCP connections to `listen` to the device's `device_port`.
+    pub fn forward_tcp(
+        &mut self,
+        listen: SocketAddr,
+        device_port: u16,
+    ) -> Result<SocketAddr, String> {
+        let l = TcpListener::bind(listen).map_err(|e| format!("tcp {listen}: {e}"))?;
+        l.set_nonblocking(true).map_err(|e| e.to_string())?;
+        let local = l.local_addr().map_err(|e| e.to_string())?;
+        self.tcp.push(TcpForward {
+            listener: l,
+            device_port,
+            conns: Vec::new(),
+        });
+        Ok(local)
+    }
+
+    /// One round: the device's frames in, the host's sockets read, smoltcp
+    /// polled, frames for the device queued on the wire.
+    pub fn poll(&mut self, link: &mut Link, now_us: u64) {
+        while let Some(frame) = link.from_device.pop_front() {
+            self.counts.frames_from_device += 1;
+            self.from_device(frame);
+        }
+        self.host_udp();
+        self.host_tcp();
+        let mut q = Queues {
+            rx: std::mem::take(&mut self.rx),
+            tx: std::mem::take(&mut self.tx),
+        };
+        let now = Instant::from_micros(now_us as i64);
+        self.iface.poll(now, &mut q, &mut self.sockets);
+        self.tcp_replies();
+        self.iface.poll(now, &mut q, &mut self.sockets);
+        self.rx = q.rx;
+        self.tx = q.tx;
+        while let Some(f) = self.tx.pop_front() {
+            self.to_device(link, f);
+        }
+        if self.device_mac.is_some() {
+            while let Some(f) = self.waiting.pop_front() {
+                self.to_device(link, f);
+            }
+            let frames: Vec<Vec<u8>> = self.tx.drain(..).collect();
+            for f in frames {
+                self.to_device(link, f);
+            }
+        }
+    }
+
+    fn to_device(&mut self, link: &mut Link, mut frame: Vec<u8>) {
+        if frame.len() >= 14 && frame[..6] == [0; 6] {
+            // A datagram framed before the device's MAC was known.
+            match self.device_mac {
+                Some(mac) => frame[..6].copy_from_slice(mac.as_bytes()),
+                None => {
+                    self.waiting.push_back(frame);
+                    return;
+                }
+            }
+        }
+        self.counts.frames_to_device += 1;
+        link.to_device.push_back(frame);
+    }
+
+    fn from_device(&mut self, frame: Vec<u8>) {
+        let Ok(eth) = EthernetFrame::new_checked(&frame[..]) else {
+            return;
+        };
+        match eth.ethertype() {
+            EthernetProtocol::Arp => {
+                if let Ok(arp) = ArpPacket::new_checked(eth.payload()) {
+                    if arp.source_protocol_addr() == self.device.octets()
+                        && arp.operation() != ArpOperation::Unknown(0)
+                    {
+                        self.device_mac = Some(eth.src_addr());
+                    }
+                }
+                self.rx.push_back(frame);
+            }
+            EthernetProtocol::Ipv4 => {
+                let Ok(ip) = Ipv4Packet::new_checked(eth.payload()) else {
+                    return;
+                };
+                if ip.src_addr() == self.device {
+                    self.device_mac = Some(eth.src_addr());
+                }
+                if ip.next_header() == IpProtocol::Udp && ip.src_addr() == self.device {
+                    let more = ip.more_frags();
+                    let offset = ip.frag_offset() as usize;
+                    let id = ip.ident();
+                    let payload = ip.payload().to_vec();
+                    self.udp_fragment(id, offset, payload, more);
+                } else {
+                    self.rx.push_back(frame);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// A UDP datagram (or a fragment of one) from the device.
+    fn udp_fragment(&mut self, id: u16, offset: usize, payload: Vec<u8>, more: bool) {
+        let whole = if offset == 0 && !more {
+            payload
+        } else {
+            let parts = self.reassembly.entry(id).or_default();
+            parts.push((offset, payload, more));
+            parts.sort_by_key(|p| p.0);
+            let mut data = Vec::new();
+            let mut complete = false;
+            for (off, p, m) in parts.iter() {
+                if *off != data.len() {
+                    break;
+                }
+                data.extend_from_slice(p);
+                if !*m {
+                    complete = true;
+                }
+            }
+            if !complete {
+                return;
+            }
+            self.reassembly.remove(&id);
+            data
+        };
+        let Ok(udp) = UdpPacket::new_checked(&whole[..]) else {
+            return;
+        };
+        let (Some((sock, _)), Some(client)) = (&self.udp, self.client) else {
+            return;
+        };
+        if udp.dst_port() == ROBOT_PORT {
+            self.counts.udp_from_device += 1;
+            let _ = sock.send_to(udp.payload(), client);
+        }
+    }
+
+    fn host_udp(&mut self) {
+        let mut buf = vec![0u8; 65536];
+        loop {
+            let Some((sock, port)) = &self.udp else {
+                return;
+            };
+            let port = *port;
+            match sock.recv_from(&mut buf) {
+                Ok((n, from)) => {
+                    self.client = Some(from);
+                    self.counts.udp_to_device += 1;
+                    let payload = buf[..n].to_vec();
+                    self.udp_to_device(&payload, port);
+                }
+                Err(_) => return,
+            }
+        }
+    }
+
+    /// Frames a datagram to the device, in fragments when it is longer
+    /// than one frame; before the device's MAC is known an ARP request
+    /// goes first and the frames wait.
+    fn udp_to_device(&mut self, payload: &[u8], port: u16) {
+        let mut udp = vec![0u8; 8 + payload.len()];
+        {
+            let mut p = UdpPacket::new_unchecked(&mut udp[..]);
+            p.set_src_port(ROBOT_PORT);
+            p.set_dst_port(port);
+            p.set_len((8 + payload.len()) as u16);
+            p.payload_mut().copy_from_slice(payload);
+            p.fill_checksum(
+                &IpAddress::Ipv4(self.gateway),
+                &IpAddress::Ipv4(self.device),
+            );
+        }
+        let id = self.ip_id;
+        self.ip_id = self.ip_id.wrapping_add(1);
+        let chunk = (MTU - 20) / 8 * 8;
+        let mut offset = 0;
+        while offset < udp.len() {
+            let end = (offset + chunk).min(udp.len());
+            let part = &udp[offset..end];
+            let mut frame = vec![0u8; 14 + 20 + part.len()];
+            {
+                let mut eth = EthernetFrame::new_unchecked(&mut frame[..]);
+                eth.set_dst_addr(self.device_mac.unwrap_or(EthernetAddress([0; 6])));
+                eth.set_src_addr(EthernetAddress(GATEWAY_MAC));
+                eth.set_ethertype(EthernetProtocol::Ipv4);
+                let mut ip = Ipv4Packet::new_unchecked(eth.payload_mut());
+                ip.set_version(4);
+                ip.set_header_len(20);
+                ip.set_dscp(0);
+                ip.set_ecn(0);
+                ip.set_total_len((20 + part.len()) as u16);
+                ip.set_ident(id);
+                ip.clear_flags();
+                ip.set_more_frags(end < udp.len());
+                ip.set_frag_offset(offset as u16);
+                ip.set_hop_limit(64);
+                ip.set_next_header(IpProtocol::Udp);
+                ip.set_src_addr(self.gateway);
+                ip.set_dst_addr(self.device);
+                ip.payload_mut().copy_from_slice(part);
+                ip.fill_checksum();
+            }
+            if self.device_mac.is_none() && self.waiting.is_empty() {
+                self.tx.push_back(self.arp_request());
+            }
+            self.tx.push_back(frame);
+            offset = end;
+        }
+    }
+
+    fn arp_request(&self) -> Vec<u8> {
+        let mut frame = vec![0u8; 14 + 28];
+        let mut eth = EthernetFrame::new_unchecked(&mut frame[..]);
+        eth.set_dst_addr(EthernetAddress::BROADCAST);
+        eth.set_src_addr(EthernetAddress(GATEWAY_MAC));
+        eth.set_ethertype(EthernetProtocol::Arp);
+        let mut arp = ArpPacket::new_unchecked(eth.payload_mut());
+        arp.set_hardware_type(smoltcp::wire::ArpHardware::Ethernet);
+        arp.set_protocol_type(EthernetProtocol::Ipv4);
+        arp.set_hardware_len(6);
+        arp.set_protocol_len(4);
+        arp.set_operation(ArpOperation::Request);
+        arp.set_source_hardware_addr(&GATEWAY_MAC);
+        arp.set_source_protocol_addr(&self.gateway.octets());
+        arp.set_target_hardware_addr(&[0; 6]);
+        arp.set_target_protocol_addr(&self.device.octets());
+        frame
+    }
+
+    fn host_tcp(&mut self) {
+        for f in &mut self.tcp {
+            while let Ok((host, _)) = f.listener.accept() {
+                let _ = host.set_nonblocking(true);
+                let _ = host.set_nodelay(true);
+                let mut s = tcp::Socket::new(
+                    tcp::SocketBuffer::new(vec![0; 16384]),
+                    tcp::SocketBuffer::new(vec![0; 16384]),
+                );
+                let port = self.next_port;
+                self.next_port = if port == 65535 { 49152 } else { port + 1 };
+                if s.connect(
+                    self.iface.context(),
+                    (IpAddress::Ipv4(self.device), f.device_port),
+                    port,
+                )
+                .is_err()
+                {
+                    continue;
+                }
+                let socket = self.sockets.add(s);
+                f.conns.push(TcpConn {
+                    host,
+                    socket,
+                    to_device: Vec::new(),
+                    host_closed: false,
+                });
+            }
+            let mut buf = [0u8; 4096];
+            for c in &mut f.conns {
+                if !c.host_closed && c.to_device.len() < 65536 {
+                    match c.host.read(&mut buf) {
+                        Ok(0) => c.host_closed = true,
+                        Ok(n) => c.to_device.extend_from_slice(&buf[..n]),
+                        Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+                        Err(_) => c.host_closed = true,
+                    }
+                }
+                let s = self.sockets.get_mut::<tcp::Socket>(c.socket);
+                if s.can_send() && !c.to_device.is_empty() {
+                    if let Ok(n) = s.send_slice(&c.to_device) {
+                        c.to_device.drain(..n);
+                    }
+                }
+                if c.host_closed && c.to_device.is_empty() {
+                    s.close();
+                }
+            }
+        }
+    }
+
+    fn tcp_replies(&mut self) {
+        for f in &mut self.tcp {
+            let mut buf = [0u8; 4096];
+            f.conns.retain_mut(|c| {
+                let s = self.sockets.get_mut::<tcp::Socket>(c.socket);
+                while s.can_recv() {
+                    match s.recv_slice(&mut buf) {
+                        Ok(n) if n > 0 => {
+                            let _ = c.host.set_nonblocking(false);
+                            let _ = c.host.write_all(&buf[..n]);
+                            let _ = c.host.set_nonblocking(true);
+                        }
+                        _ => break,
+                    }
+                }
+                let done = !s.is_open()
+                    || (!s.may_recv()
+                        && c.host_closed
+                        && c.to_device.is_empty()
+                        && s.send_queue() == 0);
+                if done {
+                    let _ = c.host.shutdown(std::net::Shutdown::Both);
+                    if !s.is_open() {
+                        self.sockets.remove(c.socket);
+                        return false;
+                    }
+                } else if !s.may_recv() && s.state() != tcp::State::SynSent {
+                    // The device closed its side: so does the host's.
+                    let _ = c.host.shutdown(std::net::Shutdown::Write);
+                }
+                true
+            });
+        }
+    }
+}
+
+/// smoltcp's device: the frames the bridge hands it and takes from it.
+struct Queues {
+    rx: VecDeque<Vec<u8>>,
+    tx: VecDeque<Vec<u8>>,
+}
+
+struct Rx(Vec<u8>);
+struct Tx<'a>(&'a mut VecDeque<Vec<u8>>);
+
+impl smoltcp::phy::RxToken for Rx {
+    fn consume<R, F: FnOnce(&[u8]) -> R>(self, f: F) -> R {
+        f(&self.0)
+    }
+}
+
+impl smoltcp::phy::TxToken for Tx<'_> {
+    fn consume<R, F: FnOnce(&mut [u8]) -> R>(self, len: usize, f: F) -> R {
+        let mut buf = vec![0; len];
+        let r = f(&mut buf);
+        self.0.push_back(buf);
+        r
+    }
+}
+
+impl Device for Queues {
+    type RxToken<'a> = Rx;
+    type TxToken<'a> = Tx<'a>;
+
+    fn receive(&mut self, _: Instant) -> Option<(Rx, Tx<'_>)> {
+        let frame = self.rx.pop_front()?;
+        Some((Rx(frame), Tx(&mut self.tx)))
+    }
+
+    fn transmit(&mut self, _: Instant) -> Option<Tx<'_>> {
+        Some(Tx(&mut self.tx))
+    }
+
+    fn capabilities(&self) -> DeviceCapabilities {
+        let mut c = DeviceCapabilities::default();
+        c.medium = Medium::Ethernet;
+        c.max_transmission_unit = 1514;
+        c
+    }
+}
