@@ -6,11 +6,20 @@ use crate::bus::{Bus, Dma, Refusal};
 use crate::machine::{State, PPB};
 use unicorn_engine::{RegisterARM, Unicorn};
 
+fn remember(s: &mut State, pc: u64, addr: u64, size: u32, write: Option<u32>, value: u32) {
+    if s.recent.len() == 32 {
+        s.recent.pop_front();
+    }
+    s.recent
+        .push_back((pc as u32, addr as u32, size, write, value));
+}
+
 pub(crate) fn bus_read(uc: &mut Unicorn<State>, addr: u64, size: usize) -> u64 {
     let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
     match access(uc, addr, size as u32, None) {
         Ok(v) => {
             let s = uc.get_data_mut();
+            remember(s, pc, addr, size as u32, None, v);
             if !s.shared.raised.is_empty() {
                 s.deadline = s.now;
             }
@@ -31,6 +40,7 @@ pub(crate) fn bus_write(uc: &mut Unicorn<State>, addr: u64, size: usize, value: 
         let _ = uc.emu_stop();
     } else {
         let s = uc.get_data_mut();
+        remember(s, pc, addr, size as u32, Some(value as u32), 0);
         if addr >= PPB.0 || !s.shared.raised.is_empty() {
             // The NVIC or a line changed: an exception may be due now. Not
             // emu_stop here: inside an MMIO callback it leaves the PC on
@@ -39,6 +49,33 @@ pub(crate) fn bus_write(uc: &mut Unicorn<State>, addr: u64, size: usize, value: 
             s.deadline = s.now;
         }
     }
+}
+
+/// Brings every model up to `now` (with the DMA reaching memory) and
+/// pends the lines they raise.
+pub(crate) fn advance_models(uc: &mut Unicorn<State>) -> Result<(), String> {
+    let s = uc.get_data_mut();
+    let mut bus = std::mem::take(&mut s.bus);
+    let mut shared = std::mem::take(&mut s.shared);
+    let now = s.now;
+    let result = {
+        let mut dma = UcDma { uc: &mut *uc };
+        let mut cx = shared.cx(now, &mut dma);
+        bus.blocks.iter_mut().try_for_each(|b| {
+            b.model
+                .advance(&mut cx)
+                .map_err(|rule| format!("{}: {rule}", b.model.name()))
+        })
+    };
+    let s = uc.get_data_mut();
+    s.bus = bus;
+    s.shared = shared;
+    for irq in s.shared.raised.drain(..) {
+        if let Some(p) = s.scs.pending.get_mut(irq as usize) {
+            *p = true;
+        }
+    }
+    result
 }
 
 /// One access to a peripheral or the system control space. The bus and

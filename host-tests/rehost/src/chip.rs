@@ -41,6 +41,13 @@ pub struct Chip {
     /// Memory the Ethernet DMA reaches on the bus matrix (RM0410 §2.1
     /// Figure 1; RM0433 §2.1 Figure 1: not the H743's TCMs).
     pub eth_dma_reaches: &'static [(u32, u32)],
+    /// VTOR at reset: the boot address the option bytes hold (F7:
+    /// BOOT_ADD0 = 0x0080, the flash through the ITCM interface at
+    /// 0x0020_0000, RM0410 §2.4; H7: BOOT_ADD0 = 0x0800, RM0433 §2.6).
+    pub vtor: u32,
+    /// Another address range that shows the flash (F7: the ITCM
+    /// interface): (its base, the flash's base, size).
+    pub flash_alias: Option<(u32, u32, u32)>,
     /// Memory the core's caches never hold (the TCMs).
     pub tightly_coupled: &'static [(u32, u32)],
 }
@@ -87,6 +94,8 @@ pub const STM32F767ZI: Chip = Chip {
     flash_size_base: 0x1FF0_F442,
     // The DTCM through the core's AHBS port, SRAM1, SRAM2.
     eth_dma_reaches: &[(0x2000_0000, 0x2008_0000)],
+    vtor: 0x0020_0000,
+    flash_alias: Some((0x0020_0000, 0x0800_0000, 2048 * K)),
     tightly_coupled: &[(0x0000_0000, 0x0000_4000), (0x2000_0000, 0x2002_0000)],
 };
 
@@ -120,6 +129,8 @@ pub const STM32H743ZI: Chip = Chip {
         (0x3800_0000, 0x3801_0000),
     ],
     tightly_coupled: &[(0x0000_0000, 0x0001_0000), (0x2000_0000, 0x2002_0000)],
+    vtor: 0x0800_0000,
+    flash_alias: None,
 };
 
 impl Chip {

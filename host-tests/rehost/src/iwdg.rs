@@ -82,10 +82,12 @@ impl Peripheral for Iwdg {
                 0x5555 => self.unlocked = true,
                 other => return Err(format!("{}_KR: {other:#06x} is no key", self.name)),
             },
-            PR | RLR | WINR if !self.unlocked => return Err(format!(
+            PR | RLR | WINR if !self.unlocked => {
+                return Err(format!(
                 "{}: offset {offset:#x} written without the 0x5555 key in KR: silicon ignores it",
                 self.name
-            )),
+            ))
+            }
             PR => self.pr = value & 7,
             RLR => self.rlr = value & 0xFFF,
             WINR => self.winr = value & 0xFFF,

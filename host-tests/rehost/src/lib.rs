@@ -13,6 +13,7 @@ pub mod gpio;
 pub mod h7;
 pub mod image;
 pub mod iwdg;
+pub mod lan8742;
 pub mod link;
 pub mod machine;
 pub mod rng;

@@ -76,6 +76,11 @@ pub struct State {
     pub event: bool,
     /// Cycles the core spent asleep.
     pub slept: u64,
+    /// The last peripheral accesses: (PC, address, size, written value or
+    /// None for a read, value read).
+    pub recent: std::collections::VecDeque<(u32, u32, u32, Option<u32>, u32)>,
+    /// Times the emulator was started (slices run).
+    pub slices: u64,
     /// The core reached the address of [`Machine::stop_at`].
     pub reached: bool,
     /// Instructions in each translated block, by its address.
@@ -83,22 +88,6 @@ pub struct State {
 }
 
 impl State {
-    /// Brings every model up to `now` and pends the lines they raise.
-    pub fn advance_models(&mut self) -> Result<(), String> {
-        let mut cx = self.shared.cx(self.now, crate::bus::no_dma());
-        for b in &mut self.bus.blocks {
-            b.model
-                .advance(&mut cx)
-                .map_err(|rule| format!("{}: {rule}", b.model.name()))?;
-        }
-        for irq in self.shared.raised.drain(..) {
-            if let Some(p) = self.scs.pending.get_mut(irq as usize) {
-                *p = true;
-            }
-        }
-        Ok(())
-    }
-
     /// Records the first stop; later ones are consequences of it.
     pub(crate) fn refuse(&mut self, rule: String, addr: Option<u64>, pc: u64) {
         if self.stop.is_none() {
@@ -159,6 +148,8 @@ impl Machine {
             sleeping: None,
             event: false,
             slept: 0,
+            slices: 0,
+            recent: std::collections::VecDeque::new(),
         };
         fn e(what: &'static str) -> impl Fn(unicorn_engine::uc_error) -> String {
             move |err| format!("unicorn: {what}: {err:?}")
@@ -185,6 +176,13 @@ impl Machine {
                 ));
             }
             uc.mem_write(load.addr, &load.bytes).map_err(e("load"))?;
+            if let Some((alias, flash, size)) = chip.flash_alias {
+                let (flash, size) = (u64::from(flash), u64::from(size));
+                if load.addr >= flash && load.addr < flash + size {
+                    uc.mem_write(load.addr - flash + u64::from(alias), &load.bytes)
+                        .map_err(e("flash alias"))?;
+                }
+            }
         }
         // The factory data: a unique ID (fixed, so runs repeat) and the
         // flash size in KiB.
@@ -270,7 +268,7 @@ impl Machine {
             let s = uc.get_data_mut();
             match intno {
                 // EXCP_EXCEPTION_EXIT: a branch to EXC_RETURN in handler mode.
-                8 => s.exception_return = Some(pc as u32),
+                8 => s.exception_return = Some(pc as u32 | 1),
                 // EXCP_UDEF: an undefined instruction, a UsageFault that
                 // escalates to HardFault (UsageFault is not enabled).
                 1 => {
@@ -293,6 +291,7 @@ impl Machine {
         .map_err(e("interrupt hook"))?;
 
         install_instruction_hooks(&mut uc, &image)?;
+        uc.get_data_mut().scs.vtor = chip.vtor;
         let sp = image
             .word(u64::from(chip.boot))
             .ok_or("no vector table at the boot address")?;
@@ -342,6 +341,7 @@ impl Machine {
             // end of the slice.
             let next = s.bus.next_event(s.now).unwrap_or(u64::MAX);
             s.deadline = deadline.min(next.max(s.now + 1)).min(s.now + slice);
+            s.slices += 1;
             let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
             let result = self.uc.emu_start(pc | 1, 0, 0, 0);
             let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
@@ -431,7 +431,7 @@ impl Machine {
                 s.event = false;
             } else {
                 loop {
-                    uc.get_data_mut().advance_models()?;
+                    crate::access::advance_models(uc)?;
                     if exceptions::next(uc).is_some() {
                         break;
                     }
@@ -456,7 +456,7 @@ impl Machine {
             }
             let _ = uc.reg_write(RegisterARM::PC, u64::from(pc + size));
         }
-        uc.get_data_mut().advance_models()?;
+        crate::access::advance_models(uc)?;
         while let Some(exc) = exceptions::next(uc) {
             let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0) as u32;
             exceptions::enter(uc, exc, pc)?;
@@ -536,8 +536,11 @@ fn install_instruction_hooks(
                     .zip(&s.scs.enabled)
                     .any(|(p, e)| *p && *e);
             if pending {
-                // Stops after this block: the unmasking instruction has run.
-                let _ = uc.emu_stop();
+                // Not emu_stop: from a code hook it stops before the hooked
+                // instruction, which would then never run. The block hook
+                // stops at the next block, after the unmasking instruction
+                // (which ends its block: it changes the interrupt mask).
+                uc.get_data_mut().deadline = 0;
             }
         })
         .map_err(|e| format!("unicorn: CPSIE hook: {e:?}"))?;

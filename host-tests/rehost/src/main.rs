@@ -31,6 +31,28 @@ struct Args {
     /// this text (a broken variant's check).
     #[arg(long)]
     expect_stop: Option<String>,
+    /// The device's address and channel port, as its GSI folder's
+    /// Description.xml says (`cargo rehost` passes it): with it the
+    /// robot's channel is forwarded from `--listen`.
+    #[arg(long)]
+    device: Option<std::net::SocketAddrV4>,
+    /// The channel is TCP (the image was built for a TCP device).
+    #[arg(long)]
+    tcp: bool,
+    /// Where the robot's channel is forwarded from.
+    #[arg(long, default_value = "127.0.0.1:0")]
+    listen: std::net::SocketAddr,
+    /// Where the device's status page (TCP port 80) is forwarded from.
+    #[arg(long, default_value = "127.0.0.1:0")]
+    http: std::net::SocketAddr,
+    /// Deterministic: no wall clock at all (virtual time runs as fast as
+    /// the host can emulate). The default with `--device` is paced to the
+    /// wall clock, so that outside clients see the device's own timing.
+    #[arg(long)]
+    deterministic: bool,
+    /// Print the device's log (defmt over RTT) as `device:` lines.
+    #[arg(long, default_value_t = true)]
+    log: bool,
 }
 
 fn main() {
@@ -56,6 +78,30 @@ fn main() {
     if let Some(addr) = until {
         m.stop_at(addr).unwrap_or_else(|e| fail(2, &e));
     }
+    if args.log {
+        let elf_bytes = std::fs::read(&elf).unwrap_or_default();
+        m.rtt =
+            m.uc.get_data()
+                .image
+                .symbol("_SEGGER_RTT")
+                .and_then(|block| rri_rehost::rtt::Rtt::new(&elf_bytes, block));
+    }
+    let mut forwards = None;
+    if let Some(device) = args.device {
+        let mut bridge = rri_rehost::bridge::Bridge::new(device.ip().octets());
+        let robot = if args.tcp {
+            bridge.forward_tcp(args.listen, device.port())
+        } else {
+            bridge.forward_udp(args.listen, device.port())
+        }
+        .unwrap_or_else(|e| fail(2, &e));
+        let http = bridge
+            .forward_tcp(args.http, 80)
+            .unwrap_or_else(|e| fail(2, &e));
+        m.bridge = Some(bridge);
+        m.paced = !args.deterministic;
+        forwards = Some((robot, http, device));
+    }
     println!(
         "rehost: {} ({}) on {}, one instruction a core cycle",
         elf.display(),
@@ -63,8 +109,59 @@ fn main() {
         chip.name
     );
     let t = std::time::Instant::now();
-    let stop = m.run(args.cycles);
+    let mut announced = false;
+    let stop = loop {
+        // A run in steps of 10 ms of virtual time, printing the log as it comes.
+        let step = m.uc.get_data().shared.clocks.core_hz / 100;
+        let left = args.cycles.saturating_sub(m.now());
+        let stop = m.run(step.min(left).max(1));
+        for line in m.take_log() {
+            println!("device: {line}");
+            if !announced && line.contains("state CONNECTED") {
+                if let Some((robot, http, device)) = forwards {
+                    let proto = if args.tcp { "tcp" } else { "udp" };
+                    println!("robot: {proto} {robot} -> device {device}");
+                    println!("status page: http://{http}/");
+                    announced = true;
+                }
+            }
+        }
+        if stop.is_some() || m.now() >= args.cycles {
+            break stop;
+        }
+    };
     let elapsed = t.elapsed();
+    {
+        let s = m.uc.get_data();
+        if std::env::var_os("REHOST_TRACE").is_some() {
+            for b in &s.bus.blocks {
+                if let Some(t) = b.model.next_event(s.now) {
+                    eprintln!("  next event of {}: {t} (now {})", b.model.name(), s.now);
+                }
+            }
+            for (pc, addr, size, write, value) in &s.recent {
+                match write {
+                    Some(w) => eprintln!(
+                        "  {pc:#010x} {}: write{size} {addr:#010x} <- {w:#010x}",
+                        s.image.describe(u64::from(*pc))
+                    ),
+                    None => eprintln!(
+                        "  {pc:#010x} {}: read{size}  {addr:#010x} -> {value:#010x}",
+                        s.image.describe(u64::from(*pc))
+                    ),
+                }
+            }
+        }
+        eprintln!(
+            "rehost: {} cycles ({} asleep), {} slices, {} exceptions taken, {:.2?}; {}",
+            s.now,
+            s.slept,
+            s.slices,
+            s.exceptions_taken,
+            elapsed,
+            m.where_now()
+        );
+    }
     match (stop, &args.expect_stop) {
         (Some(stop), None) if m.reached() => {
             println!(

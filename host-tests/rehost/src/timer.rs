@@ -23,7 +23,10 @@ pub const TIM2_5: &[Reg] = &[
     reg(0x04, "CR2", 0, 0x0000_00F8, 0),
     reg(0x08, "SMCR", 0, 0x0001_FFF7, 0),
     reg(DIER, "DIER", 0, 0x0000_5F5F, 0),
-    reg(SR, "SR", 0, 0x0000_1E5F, 0),
+    // rc_w0: software writes 0 to clear a flag and 1 elsewhere (the whole
+    // word, reserved bits included, is the usual `!flag`): the model keeps
+    // old & written for the defined bits, ignores the rest.
+    reg(SR, "SR", 0, 0xFFFF_FFFF, 0),
     reg(EGR, "EGR", 0, 0x0000_005F, 0),
     reg(0x18, "CCMR1", 0, 0x0107_FFFF, 0),
     reg(0x1C, "CCMR2", 0, 0x0107_FFFF, 0),
@@ -45,7 +48,7 @@ pub const TIM9_12: &[Reg] = &[
     reg(CR1, "CR1", 0, 0x0000_0B8F, 0),
     reg(0x08, "SMCR", 0, 0x0001_00F7, 0),
     reg(DIER, "DIER", 0, 0x0000_0047, 0),
-    reg(SR, "SR", 0, 0x0000_0647, 0),
+    reg(SR, "SR", 0, 0xFFFF_FFFF, 0),
     reg(EGR, "EGR", 0, 0x0000_0047, 0),
     reg(0x18, "CCMR1", 0, 0x0107_FFFF, 0),
     reg(0x20, "CCER", 0, 0x0000_00BB, 0),
@@ -152,7 +155,7 @@ impl Peripheral for Timer {
         let (_, new) = self.regs.write(self.name, offset, size, value)?;
         match offset & !3 {
             // rc_w0: writing 0 clears a flag, 1 leaves it.
-            SR => self.regs.set(SR, old_sr & new),
+            SR => self.regs.set(SR, old_sr & new & 0x0000_1E5F),
             EGR => {
                 if new & 1 != 0 {
                     // UG: the counter restarts, the prescaler reloads.

@@ -59,6 +59,17 @@ impl Wiring {
         }
         faults
     }
+
+    /// [`Wiring::rmii_faults`] of the data path only (RMII selected,
+    /// REF_CLK, CRS_DV, RXD, TX_EN, TXD), or of the management pins only
+    /// (MDC, MDIO): the MAC moves frames without MDIO, and MDIO frames go
+    /// out without the data pins.
+    pub fn rmii_faults_of(&self, management: bool) -> Vec<String> {
+        self.rmii_faults()
+            .into_iter()
+            .filter(|f| (f.contains("(RMII_MDIO)") || f.contains("(RMII_MDC)")) == management)
+            .collect()
+    }
 }
 
 #[cfg(test)]

@@ -3,6 +3,8 @@
 //! addresses"): every block the NUCLEO-F767ZI image touches has a model;
 //! every other address stops the run.
 
+pub mod adc;
+pub mod eth;
 pub mod power;
 pub mod rcc;
 
@@ -42,6 +44,10 @@ pub fn bus() -> (Bus, Clocks) {
     );
     bus.add(0x5006_0800, 0x400, Some("RNG"), crate::rng::Rng::new());
     bus.add(0x4000_3000, 0x400, None, crate::iwdg::Iwdg::new("IWDG"));
+    // The Ethernet MAC, MMC and DMA (IRQ 61), clocked by ETHMAC.
+    bus.add(0x4002_8000, 0x1400, Some("ETH"), eth::Eth::new(61));
+    bus.add(0x4001_2000, 0x100, Some("ADC1"), adc::Adc::new());
+    bus.add(0x4001_2300, 0x100, Some("ADC1"), adc::Common::new());
     // TIM12: the timer embassy-time's driver takes on this chip (IRQ 43,
     // TIM8_BRK_TIM12; RM0410 Table 46).
     bus.add(

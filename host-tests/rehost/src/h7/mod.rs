@@ -3,6 +3,8 @@
 //! modelled so far, the clock tree's (RCC, PWR, FLASH); every other
 //! address stops the run.
 
+pub mod adc;
+pub mod eth;
 pub mod power;
 pub mod rcc;
 
@@ -48,6 +50,15 @@ pub fn bus() -> (Bus, Clocks) {
     );
     bus.add(0x4802_1800, 0x400, Some("RNG"), crate::rng::Rng::new());
     bus.add(0x5800_4800, 0x400, None, crate::iwdg::Iwdg::new("IWDG1"));
+    // The Ethernet MAC, MTL and DMA (IRQ 61), clocked by ETH1MAC.
+    bus.add(0x4002_8000, 0x1400, Some("ETH1MAC"), eth::Eth::new(61));
+    bus.add(0x4002_2000, 0x100, Some("ADC12"), adc::Adc::new());
+    bus.add(
+        0x4002_2300,
+        0x100,
+        Some("ADC12"),
+        Plain::new("ADC12_COMMON", adc::COMMON),
+    );
     // TIM12: the timer embassy-time's driver takes on this chip (IRQ 43,
     // TIM8_BRK_TIM12; RM0433 Table 147).
     bus.add(
