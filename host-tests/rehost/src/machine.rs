@@ -154,8 +154,12 @@ impl Machine {
         fn e(what: &'static str) -> impl Fn(unicorn_engine::uc_error) -> String {
             move |err| format!("unicorn: {what}: {err:?}")
         }
-        let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, state)
+        let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB, state)
             .map_err(e("open"))?;
+        // Not Mode::MCLASS: with it unicorn builds a Cortex-M33 whatever
+        // model is asked for (its arm_cpu_init), which has no double-
+        // precision FPU; the Cortex-M7 model is an M-profile core by
+        // itself (tests/cpu.rs).
         uc.ctl_set_cpu_model(ArmCpuModel::CORTEX_M7 as i32)
             .map_err(e("Cortex-M7"))?;
         for m in chip.memories {
@@ -267,8 +271,11 @@ impl Machine {
             let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
             let s = uc.get_data_mut();
             match intno {
-                // EXCP_EXCEPTION_EXIT: a branch to EXC_RETURN in handler mode.
-                8 => s.exception_return = Some(pc as u32 | 1),
+                // A branch to EXC_RETURN in handler mode: QEMU's
+                // EXCP_EXCEPTION_EXIT (#8) when its translator knew the core
+                // was in handler mode, else a prefetch abort (#3) at the
+                // EXC_RETURN address (0xFFFF_FFxx, never memory).
+                8 | 3 if pc >= 0xFFFF_FF00 => s.exception_return = Some(pc as u32 | 1),
                 // EXCP_UDEF: an undefined instruction, a UsageFault that
                 // escalates to HardFault (UsageFault is not enabled).
                 1 => {
