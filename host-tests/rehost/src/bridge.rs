@@ -68,6 +68,12 @@ pub struct Bridge {
     next_port: u16,
     ip_id: u16,
     reassembly: HashMap<u16, Vec<(usize, Vec<u8>, bool)>>,
+    /// The machine's own robot (deterministic runs): its replies over UDP,
+    /// and its TCP connection with what the device sent on it.
+    pub internal: bool,
+    pub replies: VecDeque<Vec<u8>>,
+    internal_tcp: Option<(SocketHandle, Vec<u8>)>,
+    pub tcp_received: Vec<u8>,
     /// smoltcp's share of the device's frames, and its frames out.
     rx: VecDeque<Vec<u8>>,
     tx: VecDeque<Vec<u8>>,
@@ -107,6 +113,10 @@ impl Bridge {
             next_port: 49152,
             ip_id: 1,
             reassembly: HashMap::new(),
+            internal: false,
+            replies: VecDeque::new(),
+            internal_tcp: None,
+            tcp_received: Vec::new(),
             rx: VecDeque::new(),
             tx: VecDeque::new(),
             counts: Counts::default(),
@@ -158,8 +168,10 @@ impl Bridge {
             tx: std::mem::take(&mut self.tx),
         };
         let now = Instant::from_micros(now_us as i64);
+        self.internal_tcp_io();
         self.iface.poll(now, &mut q, &mut self.sockets);
         self.tcp_replies();
+        self.internal_tcp_io();
         self.iface.poll(now, &mut q, &mut self.sockets);
         self.rx = q.rx;
         self.tx = q.tx;
@@ -256,6 +268,13 @@ impl Bridge {
         let Ok(udp) = UdpPacket::new_checked(&whole[..]) else {
             return;
         };
+        if self.internal {
+            if udp.dst_port() == ROBOT_PORT {
+                self.counts.udp_from_device += 1;
+                self.replies.push_back(udp.payload().to_vec());
+            }
+            return;
+        }
         let (Some((sock, _)), Some(client)) = (&self.udp, self.client) else {
             return;
         };
@@ -280,6 +299,67 @@ impl Bridge {
                     self.udp_to_device(&payload, port);
                 }
                 Err(_) => return,
+            }
+        }
+    }
+
+    /// The machine's own robot sends a datagram to the device's `port`;
+    /// the replies gather in [`Bridge::replies`].
+    pub fn send_udp(&mut self, payload: &[u8], port: u16) {
+        self.internal = true;
+        self.counts.udp_to_device += 1;
+        self.udp_to_device(payload, port);
+    }
+
+    /// The machine's own robot opens a TCP connection to the device's
+    /// `port` (at most one); what the device sends gathers in
+    /// [`Bridge::tcp_received`].
+    pub fn open_tcp(&mut self, port: u16) -> Result<(), String> {
+        self.internal = true;
+        let mut s = tcp::Socket::new(
+            tcp::SocketBuffer::new(vec![0; 65536]),
+            tcp::SocketBuffer::new(vec![0; 65536]),
+        );
+        s.connect(
+            self.iface.context(),
+            (IpAddress::Ipv4(self.device), port),
+            40000,
+        )
+        .map_err(|e| format!("bridge: TCP connect: {e:?}"))?;
+        let h = self.sockets.add(s);
+        self.internal_tcp = Some((h, Vec::new()));
+        Ok(())
+    }
+
+    /// Whether the machine's own TCP connection is established.
+    pub fn tcp_ready(&self) -> bool {
+        self.internal_tcp.as_ref().is_some_and(|(h, _)| {
+            self.sockets.get::<tcp::Socket>(*h).state() == tcp::State::Established
+        })
+    }
+
+    /// Queues bytes on the machine's own TCP connection.
+    pub fn send_tcp(&mut self, bytes: &[u8]) {
+        if let Some((_, q)) = &mut self.internal_tcp {
+            q.extend_from_slice(bytes);
+        }
+    }
+
+    fn internal_tcp_io(&mut self) {
+        let Some((h, q)) = &mut self.internal_tcp else {
+            return;
+        };
+        let s = self.sockets.get_mut::<tcp::Socket>(*h);
+        if s.can_send() && !q.is_empty() {
+            if let Ok(n) = s.send_slice(q) {
+                q.drain(..n);
+            }
+        }
+        let mut buf = [0u8; 4096];
+        while s.can_recv() {
+            match s.recv_slice(&mut buf) {
+                Ok(n) if n > 0 => self.tcp_received.extend_from_slice(&buf[..n]),
+                _ => break,
             }
         }
     }
@@ -330,7 +410,9 @@ impl Bridge {
                 ip.payload_mut().copy_from_slice(part);
                 ip.fill_checksum();
             }
-            if self.device_mac.is_none() && self.waiting.is_empty() {
+            if self.device_mac.is_none() && offset == 0 {
+                // Until the device answers (its link may still be coming
+                // up), each datagram asks again.
                 self.tx.push_back(self.arp_request());
             }
             self.tx.push_back(frame);

@@ -17,6 +17,7 @@ pub mod lan8742;
 pub mod link;
 pub mod machine;
 pub mod rng;
+pub mod robot;
 pub mod rtt;
 pub mod scs;
 pub mod simple;

@@ -119,6 +119,9 @@ pub struct Machine {
     /// time), and the cycle it was last brought up to.
     pub time_ns: u128,
     time_at: u64,
+    /// Slices of 50 us instead of 1 ms (the machine's own robot: its
+    /// latencies are measured at slice ends).
+    pub fine_slices: bool,
     started: std::time::Instant,
 }
 
@@ -154,8 +157,7 @@ impl Machine {
         fn e(what: &'static str) -> impl Fn(unicorn_engine::uc_error) -> String {
             move |err| format!("unicorn: {what}: {err:?}")
         }
-        let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB, state)
-            .map_err(e("open"))?;
+        let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB, state).map_err(e("open"))?;
         // Not Mode::MCLASS: with it unicorn builds a Cortex-M33 whatever
         // model is asked for (its arm_cpu_init), which has no double-
         // precision FPU; the Cortex-M7 model is an M-profile core by
@@ -319,6 +321,7 @@ impl Machine {
             paced: false,
             time_ns: 0,
             time_at: 0,
+            fine_slices: false,
             started: std::time::Instant::now(),
         })
     }
@@ -365,7 +368,8 @@ impl Machine {
     /// millisecond of virtual time with a bridge, else unbounded.
     fn slice(&self) -> u64 {
         if self.bridge.is_some() {
-            (self.uc.get_data().shared.clocks.core_hz / 1000).max(1000)
+            let per = if self.fine_slices { 20_000 } else { 1000 };
+            (self.uc.get_data().shared.clocks.core_hz / per).max(1000)
         } else {
             u64::MAX / 4
         }

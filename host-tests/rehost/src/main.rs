@@ -50,6 +50,14 @@ struct Args {
     /// wall clock, so that outside clients see the device's own timing.
     #[arg(long)]
     deterministic: bool,
+    /// Drive the device with this many robot messages in virtual time
+    /// (deterministic: implies `--deterministic`), from the GSI folder
+    /// `--gsi`; the run ends when the last cycle is over.
+    #[arg(long)]
+    robot: Option<u64>,
+    /// The GSI folder the image was built from (for `--robot`).
+    #[arg(long)]
+    gsi: Option<PathBuf>,
     /// Print the device's log (defmt over RTT) as `device:` lines.
     #[arg(long, default_value_t = true)]
     log: bool,
@@ -99,7 +107,7 @@ fn main() {
             .forward_tcp(args.http, 80)
             .unwrap_or_else(|e| fail(2, &e));
         m.bridge = Some(bridge);
-        m.paced = !args.deterministic;
+        m.paced = !args.deterministic && args.robot.is_none();
         forwards = Some((robot, http, device));
     }
     println!(
@@ -108,15 +116,57 @@ fn main() {
         args.board,
         chip.name
     );
+    let mut robot = None;
+    if let Some(n) = args.robot {
+        let gsi = args.gsi.clone().unwrap_or_else(|| {
+            fail(
+                2,
+                "--robot needs --gsi DIR (the folder the image was built from)",
+            )
+        });
+        if args.device.is_none() {
+            fail(2, "--robot needs --device ADDR:PORT");
+        }
+        let device = gsi_config::load(&gsi, None)
+            .map(|l| l.device)
+            .unwrap_or_else(|e| fail(2, &format!("{}: {e}", gsi.display())));
+        robot = Some((n, device));
+        m.fine_slices = true;
+    }
+    let mut driver: Option<rri_rehost::robot::Robot> = None;
     let t = std::time::Instant::now();
     let mut announced = false;
     let stop = loop {
         // A run in steps of 10 ms of virtual time, printing the log as it comes.
-        let step = m.uc.get_data().shared.clocks.core_hz / 100;
+        let per = if m.fine_slices { 20_000 } else { 100 };
+        let step = m.uc.get_data().shared.clocks.core_hz / per;
         let left = args.cycles.saturating_sub(m.now());
         let stop = m.run(step.min(left).max(1));
+        if let (Some(d), Some(bridge)) = (&mut driver, &mut m.bridge) {
+            if let Err(e) = d.step(bridge, m.time_ns) {
+                fail(1, &e);
+            }
+            if d.done(m.time_ns) {
+                println!("{}", d.summary());
+                println!("bridge: {:?}", bridge.counts);
+                if let Some(e) = &d.first_error {
+                    println!("robot: first error: {e}");
+                }
+                let ok = d.lost() == 0 && d.wrong == 0 && d.late == 0;
+                std::process::exit(if ok { 0 } else { 1 });
+            }
+        }
         for line in m.take_log() {
             println!("device: {line}");
+            // The robot starts once the device's link is up (a robot
+            // message before that is lost on the wire, as on a board).
+            if line.contains("link up") {
+                if let Some((n, device)) = robot.take() {
+                    let d = rri_rehost::robot::Robot::new(device, n, m.time_ns)
+                        .unwrap_or_else(|e| fail(2, &e));
+                    driver = Some(d);
+                }
+            }
             if !announced && line.contains("state CONNECTED") {
                 if let Some((robot, http, device)) = forwards {
                     let proto = if args.tcp { "tcp" } else { "udp" };

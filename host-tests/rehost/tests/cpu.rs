@@ -1,7 +1,7 @@
 //! unicorn's Cortex-M7 as the machine sets it up executes what the
 //! images contain: the double-precision FPU (FPv5-D16, both chips).
 
-use unicorn_engine::{ArmCpuModel, Arch, Mode, Prot, RegisterARM, Unicorn};
+use unicorn_engine::{Arch, ArmCpuModel, Mode, Prot, RegisterARM, Unicorn};
 
 #[test]
 fn the_cortex_m7_model_divides_in_double_precision() {
@@ -10,7 +10,10 @@ fn the_cortex_m7_model_divides_in_double_precision() {
     // an M-profile core by itself.
     let mut uc = Unicorn::new(Arch::ARM, Mode::THUMB).unwrap();
     uc.ctl_set_cpu_model(ArmCpuModel::CORTEX_M7 as i32).unwrap();
-    assert_eq!(uc.ctl_get_cpu_model().unwrap(), ArmCpuModel::CORTEX_M7 as i32);
+    assert_eq!(
+        uc.ctl_get_cpu_model().unwrap(),
+        ArmCpuModel::CORTEX_M7 as i32
+    );
     uc.mem_map(0x1000, 0x1000, Prot::ALL).unwrap();
     // vdiv.f64 d1, d0, d8
     let code = [0x80, 0xee, 0x08, 0x1b];
