@@ -134,21 +134,62 @@ pub fn board_image(board: &str) -> Result<PathBuf, String> {
     crate::boards::build(b)
 }
 
+/// The board's image built from the TCP device's GSI folder (`--tcp`), in
+/// its own target directory (`target/rehost-tcp`), kept at
+/// `target/rehost-tcp/<board>.elf`.
+pub fn tcp_image(board: &str, gsi: &Path) -> Result<PathBuf, String> {
+    build_variant(
+        board,
+        &[],
+        Some(gsi),
+        "rehost-tcp",
+        &format!("nucleo-{board}"),
+    )
+}
+
 /// Builds a broken variant in its own target directory
 /// (`target/rehost-broken`, so no board's image is replaced) and returns
 /// its ELF.
 pub fn broken_image(variant: &Broken) -> Result<PathBuf, String> {
-    let board = match variant.board {
-        "f767" => "board,hal-board/nucleo-f767zi",
-        _ => "board,hal-board/nucleo-h743zi",
+    let name = variant.feature.trim_start_matches("hal-board/");
+    build_variant(
+        variant.board,
+        &[variant.feature],
+        None,
+        "rehost-broken",
+        name,
+    )
+}
+
+/// Builds the firmware for `board` with `extra` features (and the GSI
+/// folder `gsi`) in `target/<dir>`, and keeps it at `target/<dir>/<name>.elf`.
+fn build_variant(
+    board: &str,
+    extra: &[&str],
+    gsi: Option<&Path>,
+    dir: &str,
+    name: &str,
+) -> Result<PathBuf, String> {
+    let mut features = match board {
+        "f767" => "board,hal-board/nucleo-f767zi".to_string(),
+        "h743" => "board,hal-board/nucleo-h743zi".to_string(),
+        other => return Err(format!("no board {other:?} (f767 or h743)")),
     };
+    for f in extra {
+        features.push(',');
+        features.push_str(f);
+    }
     crate::mcu_target::ensure()?;
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let dir = crate::qemu::target_dir().join("rehost-broken");
-    let status = Command::new(&cargo)
-        .current_dir(crate::workspace())
+    let target = crate::qemu::target_dir().join(dir);
+    let mut cmd = Command::new(&cargo);
+    cmd.current_dir(crate::workspace())
         .env_remove("RRI_GSI_DIR")
-        .env_remove("RRI_DEVICE")
+        .env_remove("RRI_DEVICE");
+    if let Some(g) = gsi {
+        cmd.env("RRI_GSI_DIR", g);
+    }
+    let status = cmd
         .args([
             "build",
             "-p",
@@ -158,20 +199,15 @@ pub fn broken_image(variant: &Broken) -> Result<PathBuf, String> {
             "--profile",
             crate::qemu::PROFILE,
         ])
-        .args(["--target", crate::qemu::TARGET])
-        .args(["--features", &format!("{board},{}", variant.feature)])
+        .args(["--target", crate::qemu::TARGET, "--features", &features])
         .arg("--target-dir")
-        .arg(&dir)
+        .arg(&target)
         .status()
         .map_err(|e| format!("cannot run {cargo}: {e}"))?;
     if !status.success() {
-        return Err(format!(
-            "the broken variant {} did not build ({status})",
-            variant.feature
-        ));
+        return Err(format!("the image ({features}) did not build ({status})"));
     }
-    let name = variant.feature.trim_start_matches("hal-board/");
-    crate::qemu::keep_image_from(&dir, "rehost-broken", name)
+    crate::qemu::keep_image_from(&target, dir, name)
 }
 
 /// Runs the engine on `elf` with `args`; its exit status.

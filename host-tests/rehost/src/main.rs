@@ -20,9 +20,11 @@ struct Args {
     /// The image (default: the one `cargo build-f767` / `build-h743` writes).
     #[arg(long)]
     elf: Option<PathBuf>,
-    /// Stop after this many core cycles of virtual time.
-    #[arg(long, default_value_t = 2_000_000_000)]
-    cycles: u64,
+    /// Stop after this many core cycles of virtual time (default: without
+    /// `--device`, 2,000,000,000; with it, until the robot's run is over
+    /// or Ctrl-C).
+    #[arg(long)]
+    cycles: Option<u64>,
     /// End the run when the core reaches this function (its mangled or
     /// plain symbol name, e.g. `main`).
     #[arg(long)]
@@ -64,7 +66,14 @@ struct Args {
 }
 
 fn main() {
-    let args = Args::parse();
+    let mut args = Args::parse();
+    let cycles = args.cycles.unwrap_or(if args.device.is_some() {
+        u64::MAX / 2
+    } else {
+        2_000_000_000
+    });
+    args.cycles = Some(cycles);
+    let cycles_limit = cycles;
     let (parts, chip, dir) = match args.board.as_str() {
         "f767" => (rri_rehost::f7::bus(), chip::STM32F767ZI, "nucleo-f767zi"),
         "h743" => (rri_rehost::h7::bus(), chip::STM32H743ZI, "nucleo-h743zi"),
@@ -140,7 +149,7 @@ fn main() {
         // A run in steps of 10 ms of virtual time, printing the log as it comes.
         let per = if m.fine_slices { 20_000 } else { 100 };
         let step = m.uc.get_data().shared.clocks.core_hz / per;
-        let left = args.cycles.saturating_sub(m.now());
+        let left = cycles_limit.saturating_sub(m.now());
         let stop = m.run(step.min(left).max(1));
         if let (Some(d), Some(bridge)) = (&mut driver, &mut m.bridge) {
             if let Err(e) = d.step(bridge, m.time_ns) {
@@ -176,7 +185,7 @@ fn main() {
                 }
             }
         }
-        if stop.is_some() || m.now() >= args.cycles {
+        if stop.is_some() || m.now() >= cycles_limit {
             break stop;
         }
     };

@@ -4,8 +4,12 @@
 //! the board's image through its alias unless `--elf` names one, builds
 //! the engine and runs it. `cargo rehost -- --broken` builds every broken
 //! variant and checks that the model stops each with its defect named.
-//! Every other argument goes to the engine (`--until main`,
-//! `--cycles N`, `--expect-stop TEXT`; `--help` lists them).
+//! Every other argument goes to the engine (`--robot N` for a
+//! deterministic run with the engine's own robot, `--tcp`, `--listen
+//! ADDR`, `--until main`, `--cycles N`, `--expect-stop TEXT`; `--help`
+//! lists them). The device's address and channel come from the GSI folder
+//! the image is built from (the manual's; with `--tcp` the manual's device
+//! over TCP, host-tests/gsi/anydevice-tcp).
 
 use host_tests::rehost;
 use std::path::PathBuf;
@@ -65,11 +69,34 @@ fn main() -> ExitCode {
     let Some(board) = board else {
         return fail("say which board: --board f767 or --board h743 (or --broken)");
     };
-    let elf = match elf.map_or_else(|| rehost::board_image(&board), Ok) {
+    let tcp = args.iter().any(|a| a == "--tcp");
+    // The device the image is built for: its address, channel and GSI
+    // folder (the manual's; with --tcp the manual's device over TCP).
+    let setup = match host_tests::demo::Setup::new(tcp) {
+        Ok(s) => s,
+        Err(e) => return fail(&e),
+    };
+    let image = match (elf, &setup.build_gsi) {
+        (Some(e), _) => Ok(e),
+        (None, Some(gsi)) => rehost::tcp_image(&board, gsi),
+        (None, None) => rehost::board_image(&board),
+    };
+    let elf = match image {
         Ok(e) => e,
         Err(e) => return fail(&e),
     };
-    match rehost::run_engine(&engine, &board, &elf, &args) {
+    let device = format!(
+        "{}:{}",
+        setup.device.network.address, setup.device.channel.port
+    );
+    let mut engine_args = vec![
+        "--device".to_string(),
+        device,
+        "--gsi".to_string(),
+        setup.gsi.display().to_string(),
+    ];
+    engine_args.extend(args);
+    match rehost::run_engine(&engine, &board, &elf, &engine_args) {
         Ok(0) => ExitCode::SUCCESS,
         Ok(code) => ExitCode::from(code as u8),
         Err(e) => fail(&e),
