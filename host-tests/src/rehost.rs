@@ -26,12 +26,38 @@ pub struct Broken {
 }
 
 /// Every broken variant and the stop that proves the model sees it.
-pub const BROKEN: &[Broken] = &[Broken {
-    feature: "hal-board/rehost-broken-bss",
-    board: "h743",
-    defect: "the DMA RAM's sections inserted after .bss: the reset handler zeroes through the reserved hole after the DTCM",
-    expect: "write that no memory or model claims [address 0x20020000] at PC",
-}];
+pub const BROKEN: &[Broken] = &[
+    Broken {
+        feature: "hal-board/rehost-broken-bss",
+        board: "h743",
+        defect: "the DMA RAM's sections inserted after .bss: the reset handler zeroes through the reserved hole after the DTCM",
+        expect: "write that no memory or model claims [address 0x20020000] at PC",
+    },
+    Broken {
+        feature: "hal-board/rehost-broken-latency",
+        board: "f767",
+        defect: "one flash wait state fewer than RM0410's table at 216 MHz",
+        expect: "FLASH_ACR LATENCY is 6 wait states with HCLK at 216 MHz: the flash needs at least 7",
+    },
+    Broken {
+        feature: "hal-board/rehost-broken-latency",
+        board: "h743",
+        defect: "one flash wait state fewer than RM0433's table at a 200 MHz AXI clock",
+        expect: "FLASH_ACR LATENCY is 1 wait states with HCLK at 200 MHz",
+    },
+    Broken {
+        feature: "hal-board/rehost-broken-cacheable",
+        board: "f767",
+        defect: "the MPU's non-cacheable window left out: the Ethernet DMA writes memory the data cache holds",
+        expect: "which the data cache may hold",
+    },
+    Broken {
+        feature: "hal-board/rehost-broken-dtcm",
+        board: "h743",
+        defect: "the Ethernet DMA rings in the H743's DTCM",
+        expect: "which it cannot reach on STM32H743ZI's bus matrix",
+    },
+];
 
 fn has_libclang() -> bool {
     if std::env::var_os("LIBCLANG_PATH").is_some() {

@@ -85,8 +85,12 @@ pub(super) fn enable_caches(
     // default map (PRIVDEFENA) keeps everything else as it was.
     unsafe {
         cp.MPU.ctrl.write(0);
-        cp.MPU.rbar.write(rbar);
-        cp.MPU.rasr.write(rasr);
+        // The broken variant `rehost-broken-cacheable` (Cargo.toml) leaves
+        // the DMA RAM cacheable.
+        if cfg!(not(feature = "rehost-broken-cacheable")) {
+            cp.MPU.rbar.write(rbar);
+            cp.MPU.rasr.write(rasr);
+        }
         cp.MPU.ctrl.write(crate::mpu::CTRL_ENABLE_WITH_DEFAULT_MAP);
     }
     cortex_m::asm::dsb();

@@ -123,6 +123,8 @@ pub fn init() -> Result<Board, InitError> {
     let caches = memory::enable_caches(&mut cp);
     let source = clock::probe(chip::RESET_HSI_HZ);
     let p = embassy_stm32::init(chip::config(source));
+    #[cfg(feature = "rehost-broken-latency")]
+    chip::break_flash_latency();
     match source {
         clock::Source::Hse => defmt::info!(
             "clock: {=u32} MHz from the ST-LINK's 8 MHz (HSE bypass)",

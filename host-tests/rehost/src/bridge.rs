@@ -159,7 +159,7 @@ impl Bridge {
     pub fn poll(&mut self, link: &mut Link, now_us: u64) {
         while let Some(frame) = link.from_device.pop_front() {
             self.counts.frames_from_device += 1;
-            self.from_device(frame);
+            self.frame_from_device(frame);
         }
         self.host_udp();
         self.host_tcp();
@@ -176,20 +176,20 @@ impl Bridge {
         self.rx = q.rx;
         self.tx = q.tx;
         while let Some(f) = self.tx.pop_front() {
-            self.to_device(link, f);
+            self.frame_to_device(link, f);
         }
         if self.device_mac.is_some() {
             while let Some(f) = self.waiting.pop_front() {
-                self.to_device(link, f);
+                self.frame_to_device(link, f);
             }
             let frames: Vec<Vec<u8>> = self.tx.drain(..).collect();
             for f in frames {
-                self.to_device(link, f);
+                self.frame_to_device(link, f);
             }
         }
     }
 
-    fn to_device(&mut self, link: &mut Link, mut frame: Vec<u8>) {
+    fn frame_to_device(&mut self, link: &mut Link, mut frame: Vec<u8>) {
         if frame.len() >= 14 && frame[..6] == [0; 6] {
             // A datagram framed before the device's MAC was known.
             match self.device_mac {
@@ -204,7 +204,7 @@ impl Bridge {
         link.to_device.push_back(frame);
     }
 
-    fn from_device(&mut self, frame: Vec<u8>) {
+    fn frame_from_device(&mut self, frame: Vec<u8>) {
         let Ok(eth) = EthernetFrame::new_checked(&frame[..]) else {
             return;
         };

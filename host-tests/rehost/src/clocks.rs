@@ -86,7 +86,7 @@ impl Clocks {
 
 /// Hz as MHz with up to three decimals.
 pub fn mhz(hz: u64) -> String {
-    if hz % 1_000_000 == 0 {
+    if hz.is_multiple_of(1_000_000) {
         format!("{}", hz / 1_000_000)
     } else {
         format!("{:.3}", hz as f64 / 1e6)

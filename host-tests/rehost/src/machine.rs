@@ -301,6 +301,7 @@ impl Machine {
 
         install_instruction_hooks(&mut uc, &image)?;
         uc.get_data_mut().scs.vtor = chip.vtor;
+        uc.get_data_mut().scs.mpu_regions = chip.mpu_regions;
         let sp = image
             .word(u64::from(chip.boot))
             .ok_or("no vector table at the boot address")?;

@@ -86,6 +86,9 @@ pub struct Scs {
     pub demcr: u32,
     /// Cache maintenance operations, by register name, in order.
     pub cache_ops: Vec<(&'static str, u32)>,
+    /// MPU regions the core has (MPU_TYPE.DREGION: 8 on the STM32F7, 16 on
+    /// the STM32H7; PM0253 §4.6).
+    pub mpu_regions: u32,
     /// SysTick's exception is pending (ICSR PENDSTSET).
     pub systick_pending: bool,
     /// Why the last fault was taken (for CFSR/HFSR and the report).
@@ -133,6 +136,7 @@ impl Scs {
             cache_ops: Vec::new(),
             reset_requested: false,
             systick_pending: false,
+            mpu_regions: 8,
             fault_reason: None,
         }
     }
@@ -196,7 +200,7 @@ impl Scs {
             }
             0xE000_ED84 => self.csselr,
             0xE000_ED88 => self.cpacr,
-            0xE000_ED90 => 0x0000_1000 * 0 + (16 << 8), // MPU_TYPE: 16 data regions
+            0xE000_ED90 => self.mpu_regions << 8, // MPU_TYPE: DREGION
             0xE000_ED94 => self.mpu_ctrl,
             0xE000_ED98 => self.mpu_rnr,
             0xE000_ED9C => self.mpu[(self.mpu_rnr & 15) as usize].rbar | (self.mpu_rnr & 15),

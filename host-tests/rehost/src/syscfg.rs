@@ -53,12 +53,9 @@ impl Syscfg {
         }
     }
 
+    /// The compensation cell's register (F7 CMPCR, H7 CCCSR: both 0x20).
     fn cell(&self) -> u32 {
-        if self.kind == Kind::F7 {
-            0x20
-        } else {
-            0x20
-        }
+        0x20
     }
 }
 

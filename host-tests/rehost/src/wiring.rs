@@ -4,21 +4,12 @@
 //! its alternate function).
 
 /// Ports A..K, 16 pins each: (MODER value, alternate function).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Wiring {
     pub pins: [[(u8, u8); 16]; 11],
     /// SYSCFG selects RMII for the Ethernet MAC (F7: PMC MII_RMII_SEL;
     /// H7: PMCR EPIS = 100).
     pub rmii: bool,
-}
-
-impl Default for Wiring {
-    fn default() -> Wiring {
-        Wiring {
-            pins: [[(0, 0); 16]; 11],
-            rmii: false,
-        }
-    }
 }
 
 /// The NUCLEO-144 boards' RMII wiring to the LAN8742A (UM1974, "Ethernet"

@@ -47,10 +47,12 @@ struct Bench(Ram, Shared, Eth);
 
 impl Bench {
     fn new(ref_clock: bool) -> Bench {
-        let mut s = Shared::default();
-        s.link = Link {
-            ref_clock,
-            ..Link::nucleo()
+        let mut s = Shared {
+            link: Link {
+                ref_clock,
+                ..Link::nucleo()
+            },
+            ..Shared::default()
         };
         (s.clocks.core_hz, s.clocks.hclk_hz, s.wiring.rmii) = (216_000_000, 216_000_000, true);
         for (pin, _) in NUCLEO_RMII {

@@ -275,22 +275,16 @@ impl Peripheral for Rcc {
                     self.pll_p_hz()?;
                 }
             }
-            PLLCFGR => {
-                if self.cr() & (1 << 24) != 0 && changed != 0 {
-                    self.regs = before;
-                    return Err("RCC_PLLCFGR written while the PLL is on (RM0410 §5.3.2: only while PLLON is clear)".into());
-                }
+            PLLCFGR if self.cr() & (1 << 24) != 0 && changed != 0 => {
+                self.regs = before;
+                return Err("RCC_PLLCFGR written while the PLL is on (RM0410 §5.3.2: only while PLLON is clear)".into());
             }
             CFGR => {
                 // SWS follows SW when the target clock is ready.
                 self.advance(cx)?;
             }
-            CSR => {
-                if new & (1 << 24) != 0 {
-                    // RMVF clears every reset flag.
-                    self.regs.set_bits(CSR, 0xFE00_0000, false);
-                }
-            }
+            // RMVF clears every reset flag.
+            CSR if new & (1 << 24) != 0 => self.regs.set_bits(CSR, 0xFE00_0000, false),
             _ => {}
         }
         self.update_clocks(cx)

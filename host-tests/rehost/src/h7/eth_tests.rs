@@ -62,8 +62,10 @@ struct Rig {
 
 impl Rig {
     fn new() -> Rig {
-        let mut shared = Shared::default();
-        shared.link = Link::nucleo();
+        let mut shared = Shared {
+            link: Link::nucleo(),
+            ..Shared::default()
+        };
         shared.wiring.rmii = true;
         for (pin, _) in NUCLEO_RMII {
             let port = (pin.as_bytes()[1] - b'A') as usize;

@@ -240,7 +240,7 @@ impl Rcc {
                 "RCC_PLLCFGR: PLL{n}VCOSEL = 0 (wide VCO) with a PLL{n} input of {} MHz: the wide VCO needs 2 MHz or more",
                 mhz(input)
             )
-        } else if x == 0 && cfg & (1 << 16) != 0 && divp1 % 2 == 0 {
+        } else if x == 0 && cfg & (1 << 16) != 0 && divp1.is_multiple_of(2) {
             format!(
                 "RCC_PLL1DIVR: DIVP1 = {divp1} (/{}): PLL1 P divides by 2, 4 ... 128 only",
                 divp1 + 1
