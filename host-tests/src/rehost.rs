@@ -63,21 +63,20 @@ fn has_libclang() -> bool {
     if std::env::var_os("LIBCLANG_PATH").is_some() {
         return true;
     }
-    [
-        "/usr/lib",
-        "/usr/lib/x86_64-linux-gnu",
-        "/usr/lib/aarch64-linux-gnu",
-    ]
-    .iter()
-    .filter_map(|d| std::fs::read_dir(d).ok())
-    .flatten()
-    .flatten()
-    .any(|e| {
-        let name = e.file_name();
-        let name = name.to_string_lossy();
-        name.starts_with("libclang") && name.contains(".so")
-            || name.starts_with("llvm-") && e.path().join("lib/libclang.so").exists()
-    })
+    // clang-sys looks in LLVM's folders: libclang.so there (not
+    // libclang-cpp, which other packages bring).
+    std::fs::read_dir("/usr/lib")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .any(|e| {
+            e.file_name().to_string_lossy().starts_with("llvm-")
+                && std::fs::read_dir(e.path().join("lib"))
+                    .into_iter()
+                    .flatten()
+                    .flatten()
+                    .any(|f| f.file_name().to_string_lossy().starts_with("libclang.so"))
+        })
 }
 
 fn has(what: &str) -> bool {
