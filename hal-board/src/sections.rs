@@ -2,7 +2,10 @@
 //! the diagnostics service's buffers (NOLOAD in every memory map: in the
 //! NUCLEO boards' DMA SRAM, beside the Ethernet rings, so that they take
 //! nothing from the DTCM the stack and the cycle's statics share).
-//! cortex-m-rt zeroes `.bss` only; the board zeroes this section in its
+//! cortex-m-rt zeroes `.bss` only (the memory maps insert this section
+//! before `.bss`, so `__ebss` stays `.bss`'s end: `cargo boards` checks
+//! it, and an image whose reset handler zeroes more is a broken variant
+//! `cargo rehost -- --broken` must stop); the board zeroes this section in its
 //! `init`, so every static placed there (byte buffers, all-zero at
 //! start) holds its initial value before it is first used.
 #![allow(unsafe_code)]
