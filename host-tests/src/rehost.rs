@@ -246,3 +246,98 @@ pub fn run_engine(engine: &Path, board: &str, elf: &Path, args: &[String]) -> Re
         .map_err(|e| format!("{}: {e}", engine.display()))?;
     Ok(status.code().unwrap_or(1))
 }
+
+/// A rehosted NUCLEO board for the demo's harness (`cargo demo -- --board
+/// f767`): the engine as a child process, paced to the wall clock, the
+/// robot's channel and the status page forwarded from free 127.0.0.1
+/// ports, its log read line by line as a probe run's is.
+pub struct Rehosted(crate::probe::ProbeRun);
+
+impl crate::demo::Device for Rehosted {
+    fn wait_for(&mut self, needle: &str, timeout: std::time::Duration) -> Result<(), String> {
+        self.0
+            .wait_for(needle, timeout)
+            .map_err(|e| e.replace("probe-rs", "the rehosting engine"))
+    }
+    fn take_new(&self) -> Vec<String> {
+        self.0.take_new()
+    }
+    fn live_lines(&self) -> std::sync::Arc<std::sync::Mutex<Vec<String>>> {
+        self.0.live_lines()
+    }
+    fn log(&self) -> Vec<String> {
+        self.0.log()
+    }
+    fn stopped(&mut self) -> Option<String> {
+        self.0.stopped().map(|e| {
+            e.replace(
+                "probe-rs",
+                "the rehosting engine (the model stopped the image: see its last lines)",
+            )
+        })
+    }
+    fn stop(self: Box<Self>) -> Vec<String> {
+        Box::new(self.0).stop()
+    }
+}
+
+/// Builds what a rehosted `board` ("f767" or "h743") needs for `setup`'s
+/// device and boots it; returns it with the robot's and the status page's
+/// addresses on 127.0.0.1.
+pub fn boot(
+    board: &str,
+    setup: &crate::demo::Setup,
+) -> Result<(Rehosted, std::net::SocketAddr, Option<std::net::SocketAddr>), String> {
+    ensure_build_tools(&mut std::io::stdout())?;
+    let engine = build_engine()?;
+    let elf = match &setup.build_gsi {
+        Some(gsi) => tcp_image(board, gsi)?,
+        None => board_image(board)?,
+    };
+    let robot = crate::qemu::free_port()?;
+    let http = crate::qemu::free_tcp_port()?;
+    let mut cmd = Command::new(&engine);
+    cmd.current_dir(crate::workspace())
+        .args(["--board", board, "--elf"])
+        .arg(&elf)
+        .args([
+            "--device",
+            &format!(
+                "{}:{}",
+                setup.device.network.address, setup.device.channel.port
+            ),
+        ])
+        .arg("--gsi")
+        .arg(&setup.gsi)
+        .args([
+            "--listen",
+            &format!("127.0.0.1:{robot}"),
+            "--http",
+            &format!("127.0.0.1:{http}"),
+        ])
+        .args(["--log-prefix", ""]);
+    if setup.device.channel.protocol == gsi_config::Protocol::Tcp {
+        cmd.arg("--tcp");
+    }
+    println!(
+        "== booting {} rehosted on the model of its chip (device {}:{} forwarded from 127.0.0.1:{robot})",
+        elf.display(),
+        setup.device.network.address,
+        setup.device.channel.port
+    );
+    let run = crate::probe::ProbeRun::start(cmd)?;
+    Ok((
+        Rehosted(run),
+        ([127, 0, 0, 1], robot).into(),
+        Some(([127, 0, 0, 1], http).into()),
+    ))
+}
+
+/// What the demo waits for on a rehosted board: the device up, then its
+/// link (a robot message before that is lost on the wire, as on a board).
+pub fn ready() -> Vec<(&'static str, std::time::Duration)> {
+    vec![
+        ("state CONNECTED", std::time::Duration::from_secs(120)),
+        ("link up", std::time::Duration::from_secs(60)),
+    ]
+}

@@ -60,6 +60,9 @@ struct Args {
     /// The GSI folder the image was built from (for `--robot`).
     #[arg(long)]
     gsi: Option<PathBuf>,
+    /// What each line of the device's log starts with.
+    #[arg(long, default_value = "device: ")]
+    log_prefix: String,
     /// Print the device's log (defmt over RTT) as `device:` lines.
     #[arg(long, default_value_t = true)]
     log: bool,
@@ -166,7 +169,7 @@ fn main() {
             }
         }
         for line in m.take_log() {
-            println!("device: {line}");
+            println!("{}{line}", args.log_prefix);
             // The robot starts once the device's link is up (a robot
             // message before that is lost on the wire, as on a board).
             if line.contains("link up") {

@@ -23,6 +23,11 @@ use std::process::ExitCode;
 struct Args {
     #[command(flatten)]
     run: RunArgs,
+    /// The board: `qemu` (QEMU's mps2-an500, the default), or `f767` /
+    /// `h743` for a NUCLEO image rehosted on the model of its chip (`cargo
+    /// rehost`, paced to the wall clock).
+    #[arg(long, default_value = "qemu", value_parser = ["qemu", "f767", "h743"])]
+    board: String,
 }
 
 fn main() -> ExitCode {
@@ -31,7 +36,12 @@ fn main() -> ExitCode {
         eprintln!("error: {e}");
         return ExitCode::from(2);
     }
-    match run_demo(&args.run) {
+    let result = if args.board == "qemu" {
+        run_demo(&args.run)
+    } else {
+        run_rehosted(&args.board, &args.run)
+    };
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => f.report(),
     }
@@ -56,6 +66,24 @@ fn run_demo(args: &RunArgs) -> Result<(), Failure> {
         to,
         http,
         &demo::qemu_ready(&setup),
+        &mut out,
+    )?;
+    demo::verdict("demo", &ran)
+}
+
+/// The demo on a rehosted NUCLEO image: the same run, summary and exit
+/// codes, the engine in place of QEMU.
+fn run_rehosted(board: &str, args: &RunArgs) -> Result<(), Failure> {
+    let mut out = std::io::stdout();
+    let setup = Setup::new(args.tcp)?;
+    let (dev, to, http) = host_tests::rehost::boot(board, &setup)?;
+    let ran = demo::drive(
+        Box::new(dev),
+        &setup,
+        args,
+        to,
+        http,
+        &host_tests::rehost::ready(),
         &mut out,
     )?;
     demo::verdict("demo", &ran)
