@@ -4,6 +4,7 @@
 
 pub mod access;
 pub mod bridge;
+pub mod bridge_phy;
 pub mod bus;
 pub mod chip;
 pub mod clocks;
@@ -11,6 +12,7 @@ pub mod exceptions;
 pub mod f7;
 pub mod gpio;
 pub mod h7;
+pub mod hooks;
 pub mod image;
 pub mod iwdg;
 pub mod lan8742;
@@ -21,6 +23,7 @@ pub mod robot;
 pub mod rtt;
 pub mod scs;
 pub mod simple;
+pub mod stop;
 pub mod syscfg;
 pub mod timer;
 pub mod wiring;

@@ -14,6 +14,7 @@ use crate::clocks::Clocks;
 use crate::exceptions::{self, Active, HARD_FAULT};
 use crate::image::Image;
 use crate::scs::Scs;
+pub use crate::stop::Stop;
 use std::rc::Rc;
 use unicorn_engine::{Arch, ArmCpuModel, HookType, MemType, Mode, Prot, RegisterARM, Unicorn};
 
@@ -21,34 +22,6 @@ use unicorn_engine::{Arch, ArmCpuModel, HookType, MemType, Mode, Prot, RegisterA
 /// and on the H7 the D3 domain) and the core's private peripheral bus.
 const PERIPHERALS: (u64, u64) = (0x4000_0000, 0x2000_0000);
 pub(crate) const PPB: (u64, u64) = (0xE000_0000, 0x10_0000);
-
-/// Why the run stopped.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Stop {
-    /// The rule broken, or what ended the run.
-    pub rule: String,
-    /// The data address involved, if any.
-    pub addr: Option<u64>,
-    /// Where the core was, and the function that holds it.
-    pub pc: u64,
-    pub function: String,
-    /// Virtual time of the stop, in core cycles.
-    pub cycles: u64,
-}
-
-impl std::fmt::Display for Stop {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}", self.rule)?;
-        if let Some(a) = self.addr {
-            write!(f, " [address {a:#010x}]")?;
-        }
-        write!(
-            f,
-            " at PC {:#010x} in {} (cycle {})",
-            self.pc, self.function, self.cycles
-        )
-    }
-}
 
 /// Everything the hooks reach.
 pub struct State {
@@ -257,7 +230,7 @@ impl Machine {
                 None => {
                     let mut bytes = vec![0; size as usize];
                     let _ = uc.mem_read(addr, &mut bytes);
-                    let c = thumb_instructions(&bytes);
+                    let c = crate::hooks::thumb_instructions(&bytes);
                     uc.get_data_mut().block_sizes.insert(addr, c);
                     c
                 }
@@ -299,7 +272,7 @@ impl Machine {
         })
         .map_err(e("interrupt hook"))?;
 
-        install_instruction_hooks(&mut uc, &image)?;
+        crate::hooks::install_instruction_hooks(&mut uc, &image)?;
         uc.get_data_mut().scs.vtor = chip.vtor;
         uc.get_data_mut().scs.mpu_regions = chip.mpu_regions;
         let sp = image
@@ -505,86 +478,5 @@ impl Machine {
     /// Virtual time, in core cycles.
     pub fn now(&self) -> u64 {
         self.uc.get_data().now
-    }
-}
-
-/// Hooks on the instructions the model must see (ARMv7-M A7.7): WFI and
-/// WFE (the core sleeps until the next event), SEV (the event register),
-/// and CPSIE and MSR to PRIMASK/BASEPRI/FAULTMASK, after which a pending
-/// interrupt may be taken at once.
-fn install_instruction_hooks(
-    uc: &mut Unicorn<'static, State>,
-    image: &Image,
-) -> Result<(), String> {
-    let sleeps = image.find_code(|hw, _| hw == 0xBF30 || hw == 0xBF20);
-    for addr in sleeps {
-        uc.add_code_hook(addr, addr, |uc, addr, size| {
-            let mut hw = [0; 2];
-            let _ = uc.mem_read(addr, &mut hw);
-            let wfe = u16::from_le_bytes(hw) == 0xBF20;
-            uc.get_data_mut().sleeping = Some((addr as u32, size, wfe));
-            let _ = uc.emu_stop();
-        })
-        .map_err(|e| format!("unicorn: WFI hook: {e:?}"))?;
-    }
-    for addr in image.find_code(|hw, _| hw == 0xBF40) {
-        uc.add_code_hook(addr, addr, |uc, _, _| uc.get_data_mut().event = true)
-            .map_err(|e| format!("unicorn: SEV hook: {e:?}"))?;
-    }
-    let unmasks = image.find_code(|hw, next| {
-        hw == 0xB662
-            || (hw & 0xFFF0 == 0xF380
-                && next & 0xFF00 == 0x8800
-                && (0x10..=0x13).contains(&(next & 0xFF)))
-    });
-    for addr in unmasks {
-        uc.add_code_hook(addr, addr, |uc, _, _| {
-            let s = uc.get_data();
-            let pending = s.scs.pendsv
-                || s.scs.systick_pending
-                || s.scs
-                    .pending
-                    .iter()
-                    .zip(&s.scs.enabled)
-                    .any(|(p, e)| *p && *e);
-            if pending {
-                // Not emu_stop: from a code hook it stops before the hooked
-                // instruction, which would then never run. The block hook
-                // stops at the next block, after the unmasking instruction
-                // (which ends its block: it changes the interrupt mask).
-                uc.get_data_mut().deadline = 0;
-            }
-        })
-        .map_err(|e| format!("unicorn: CPSIE hook: {e:?}"))?;
-    }
-    Ok(())
-}
-
-/// Thumb-2 instructions in a run of code: a half-word whose top five bits
-/// are 0b11101, 0b11110 or 0b11111 starts a 32-bit instruction (ARMv7-M
-/// ARM A5.1), every other one is a 16-bit instruction.
-pub fn thumb_instructions(code: &[u8]) -> u64 {
-    let mut i = 0;
-    let mut n = 0;
-    while i + 1 < code.len() {
-        let hw = u16::from_le_bytes([code[i], code[i + 1]]);
-        i += if hw >> 11 >= 0b11101 { 4 } else { 2 };
-        n += 1;
-    }
-    n
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn thumb_instructions_are_told_by_their_first_half_word() {
-        // movs r0, #1; ldr.w r0, [r8]; bx lr
-        assert_eq!(
-            thumb_instructions(&[0x01, 0x20, 0xd8, 0xf8, 0x00, 0x00, 0x70, 0x47]),
-            3
-        );
-        assert_eq!(thumb_instructions(&[]), 0);
     }
 }
