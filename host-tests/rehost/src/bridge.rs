@@ -185,10 +185,6 @@ impl Bridge {
             while let Some(f) = self.waiting.pop_front() {
                 self.frame_to_device(link, f);
             }
-            let frames: Vec<Vec<u8>> = self.tx.drain(..).collect();
-            for f in frames {
-                self.frame_to_device(link, f);
-            }
         }
     }
 
