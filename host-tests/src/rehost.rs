@@ -23,6 +23,9 @@ pub struct Broken {
     pub board: &'static str,
     pub defect: &'static str,
     pub expect: &'static str,
+    /// The defect shows only when frames cross the wire: the model's robot
+    /// sends some (a device with nothing to say transmits nothing).
+    pub traffic: bool,
 }
 
 /// Every broken variant and the stop that proves the model sees it.
@@ -32,30 +35,77 @@ pub const BROKEN: &[Broken] = &[
         board: "h743",
         defect: "the DMA RAM's sections inserted after .bss: the reset handler zeroes through the reserved hole after the DTCM",
         expect: "write that no memory or model claims [address 0x20020000] at PC",
+        traffic: false,
     },
     Broken {
         feature: "hal-board/rehost-broken-latency",
         board: "f767",
         defect: "one flash wait state fewer than RM0410's table at 216 MHz",
         expect: "FLASH_ACR LATENCY is 6 wait states with HCLK at 216 MHz: the flash needs at least 7",
+        traffic: false,
     },
     Broken {
         feature: "hal-board/rehost-broken-latency",
         board: "h743",
         defect: "one flash wait state fewer than RM0433's table at a 200 MHz AXI clock",
         expect: "FLASH_ACR LATENCY is 1 wait states with HCLK at 200 MHz",
+        traffic: false,
     },
     Broken {
         feature: "hal-board/rehost-broken-cacheable",
         board: "f767",
         defect: "the MPU's non-cacheable window left out: the Ethernet DMA writes memory the data cache holds",
         expect: "which the data cache may hold",
+        traffic: false,
     },
     Broken {
         feature: "hal-board/rehost-broken-dtcm",
         board: "h743",
         defect: "the Ethernet DMA rings in the H743's DTCM",
         expect: "which it cannot reach on STM32H743ZI's bus matrix",
+        traffic: false,
+    },
+    Broken {
+        feature: "hal-board/rehost-broken-pll",
+        board: "f767",
+        defect: "the main PLL started with a 480 MHz VCO, above DS11532's 432 MHz",
+        expect: "the PLL's VCO 480 MHz is outside 100-432 MHz (PLLN = 240)",
+        traffic: false,
+    },
+    Broken {
+        feature: "hal-board/rehost-broken-pll",
+        board: "h743",
+        defect: "PLL1 started with a 1000 MHz VCO, above DS12110's 960 MHz",
+        expect: "DIVN1 = 499 gives a VCO of 1000 MHz, outside the wide VCO's 192-960 MHz",
+        traffic: false,
+    },
+    Broken {
+        feature: "hal-board/rehost-broken-rmii",
+        board: "h743",
+        defect: "PG13 (RMII_TXD0) moved to AF10 after the MAC started",
+        expect: "a frame on the wire while the MAC cannot reach the LAN8742A: PG13 (RMII_TXD0) is in mode 2 with AF10",
+        traffic: true,
+    },
+    Broken {
+        feature: "hal-board/rehost-broken-mdc",
+        board: "f767",
+        defect: "an MDIO read at HCLK/62: MDC at 3.5 MHz from 216 MHz",
+        expect: "ETH_MACMIIAR: CR = 001 divides HCLK by 62",
+        traffic: false,
+    },
+    Broken {
+        feature: "hal-board/rehost-broken-mdc",
+        board: "h743",
+        defect: "an MDIO read at HCLK/62: MDC at 3.2 MHz from 200 MHz",
+        expect: "ETH_MACMDIOAR: CR = 1",
+        traffic: false,
+    },
+    Broken {
+        feature: "hal-board/rehost-broken-stack",
+        board: "f767",
+        defect: "a recursion that runs the stack into its MPU guard",
+        expect: "into the MPU's stack guard",
+        traffic: false,
     },
 ];
 

@@ -6,18 +6,6 @@ use super::clock::Source;
 use embassy_stm32::adc::SampleTime;
 use embassy_stm32::time::Hertz;
 
-/// The broken variant `rehost-broken-latency` (Cargo.toml): one flash
-/// wait state fewer than RM0410's Table 7 wants at the clock
-/// embassy-stm32 just set, so that `cargo rehost -- --broken` can prove
-/// the chip's model stops it.
-#[cfg(feature = "rehost-broken-latency")]
-pub fn break_flash_latency() {
-    // FLASH_ACR (RM0410 §3.7.1), LATENCY in bits 3:0.
-    let acr = 0x4002_3C00 as *mut u32;
-    // SAFETY: a register of the chip; this variant is never flashed.
-    unsafe { acr.write_volatile(acr.read_volatile() - 1) };
-}
-
 pub const NAME: &str = "NUCLEO-F767ZI";
 /// The core clock: 216 MHz, the chip's maximum.
 pub const SYSCLK_HZ: u32 = 216_000_000;

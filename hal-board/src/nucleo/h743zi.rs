@@ -13,17 +13,6 @@ use super::clock::Source;
 use embassy_stm32::adc::SampleTime;
 use embassy_stm32::time::Hertz;
 
-/// The broken variant `rehost-broken-latency` (Cargo.toml): one flash
-/// wait state fewer than RM0433's Table 17 wants at the AXI clock
-/// embassy-stm32 just set.
-#[cfg(feature = "rehost-broken-latency")]
-pub fn break_flash_latency() {
-    // FLASH_ACR (RM0433 §4.9.1), LATENCY in bits 3:0.
-    let acr = 0x5200_2000 as *mut u32;
-    // SAFETY: a register of the chip; this variant is never flashed.
-    unsafe { acr.write_volatile(acr.read_volatile() - 1) };
-}
-
 pub const NAME: &str = "NUCLEO-H743ZI2";
 /// The core clock: 400 MHz (voltage scale 1; 480 MHz would need VOS0 and a
 /// revision V chip).

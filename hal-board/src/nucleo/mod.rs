@@ -38,6 +38,7 @@
 //! board's memory map and its sizes and placement are checked in CI.
 #![allow(unsafe_code)]
 
+mod broken;
 #[cfg(feature = "nucleo-f767zi")]
 #[path = "f767zi.rs"]
 mod chip;
@@ -122,9 +123,9 @@ pub fn init() -> Result<Board, InitError> {
     // Before anything is cached (the MPU window first).
     let caches = memory::enable_caches(&mut cp);
     let source = clock::probe(chip::RESET_HSI_HZ);
+    broken::before_clocks();
     let p = embassy_stm32::init(chip::config(source));
-    #[cfg(feature = "rehost-broken-latency")]
-    chip::break_flash_latency();
+    broken::after_clocks();
     match source {
         clock::Source::Hse => defmt::info!(
             "clock: {=u32} MHz from the ST-LINK's 8 MHz (HSE bypass)",
@@ -182,6 +183,7 @@ pub fn init() -> Result<Board, InitError> {
     // After the MAC's reset (in `new_with_phy`): MDIO goes through it.
     let monitor = phy::Monitor::start(Sma::new(p.ETH_SMA, p.PA2, p.PC1));
     LINK_MONITOR.lock(|m| m.set(Some(monitor)));
+    broken::after_ethernet();
     if cfg!(feature = "fault-selftest") {
         crate::fault::selftest(&reset);
     }

@@ -13,10 +13,33 @@ use unicorn_engine::{RegisterARM, Unicorn};
 
 /// Exception numbers (B1.5.2).
 pub const HARD_FAULT: u32 = 3;
+pub const MEM_MANAGE: u32 = 4;
+pub const USAGE_FAULT: u32 = 6;
 pub const PENDSV: u32 = 14;
 pub const SYSTICK: u32 = 15;
 /// The first external interrupt.
 pub const IRQ0: u32 = 16;
+
+/// CFSR bits (B3.2.15): MMFSR DACCVIOL, MSTKERR, MMARVALID; UFSR
+/// UNDEFINSTR. HFSR FORCED (B3.2.16).
+pub const DACCVIOL: u32 = 1 << 1;
+pub const MSTKERR: u32 = 1 << 4;
+pub const MMARVALID: u32 = 1 << 7;
+pub const UNDEFINSTR: u32 = 1 << 16;
+pub const FORCED: u32 = 1 << 30;
+
+/// A synchronous fault the core takes before its next instruction: the
+/// configurable fault it is (MemManage, UsageFault), the address of the
+/// instruction that faulted (stacked as the return address), why, and what
+/// it sets in CFSR and MMFAR.
+#[derive(Clone, Debug)]
+pub struct Fault {
+    pub exc: u32,
+    pub at: u32,
+    pub why: String,
+    pub cfsr: u32,
+    pub mmfar: Option<u32>,
+}
 
 /// The exceptions the core is handling, innermost last, with their
 /// priorities.
@@ -72,7 +95,7 @@ fn group(s: &State, p: i32) -> i32 {
 
 /// The current execution priority (B1.5.4): 256 with nothing active and
 /// nothing masked.
-fn execution_priority(uc: &Unicorn<State>) -> i32 {
+pub fn execution_priority(uc: &Unicorn<State>) -> i32 {
     let s = uc.get_data();
     let mut p = s
         .active
@@ -159,7 +182,19 @@ pub fn enter(uc: &mut Unicorn<State>, exc: u32, return_to: u32) -> Result<(), St
         words.push(r(uc, RegisterARM::FPSCR));
         words.push(0);
     }
-    write_words(uc, frame_sp, &words)?;
+    // The MPU checks the frame's writes like any other (B1.5.14): a
+    // frame into a write-denied range is not written and sets MSTKERR;
+    // the handler is entered all the same (the derived MemManage is taken
+    // as the same handler's late arrival).
+    let frame_len = u64::from(frame_words * 4 + if realigned { 4 } else { 0 });
+    let mpu_applies = uc.get_data().scs.mpu_ctrl & 2 != 0 || execution_priority(uc) >= 0;
+    let stacking_fault = mpu_applies
+        && crate::mpu::hit(&uc.get_data().mpu_denied, u64::from(frame_sp), frame_len).is_some();
+    if stacking_fault {
+        uc.get_data_mut().scs.cfsr |= MSTKERR;
+    } else {
+        write_words(uc, frame_sp, &words)?;
+    }
     let exc_return = match (handler_mode, on_psp, fp) {
         (true, _, false) => 0xFFFF_FFF1,
         (true, _, true) => 0xFFFF_FFE1,
@@ -205,6 +240,56 @@ pub fn enter(uc: &mut Unicorn<State>, exc: u32, return_to: u32) -> Result<(), St
     w(uc, RegisterARM::IPSR, exc)?;
     w(uc, RegisterARM::PC, vector & !1)?;
     Ok(())
+}
+
+/// Takes `f` (B1.5.14): its own handler when it is enabled in SHCSR and
+/// more urgent than the execution priority, else HardFault with HFSR
+/// FORCED; a fault the HardFault priority cannot take is a lock-up, which
+/// ends the run.
+pub fn take_fault(uc: &mut Unicorn<State>, f: Fault) -> Result<(), String> {
+    let current = execution_priority(uc);
+    let s = uc.get_data_mut();
+    let enable_bit = match f.exc {
+        MEM_MANAGE => 16,
+        5 => 17,
+        USAGE_FAULT => 18,
+        _ => 0,
+    };
+    let enabled = enable_bit != 0 && s.scs.shcsr & (1 << enable_bit) != 0;
+    let exc = if enabled && group(s, priority(s, f.exc)) < current {
+        f.exc
+    } else {
+        HARD_FAULT
+    };
+    let name = match f.exc {
+        MEM_MANAGE => "MemManage",
+        USAGE_FAULT => "UsageFault",
+        _ => "a fault",
+    };
+    if exc == HARD_FAULT && current <= -1 {
+        return Err(format!(
+            "{} ({name}) with the core at priority {current}: the core locks up",
+            f.why
+        ));
+    }
+    s.scs.cfsr |= f.cfsr;
+    if let Some(a) = f.mmfar {
+        s.scs.mmfar = a;
+    }
+    if exc == HARD_FAULT {
+        s.scs.hfsr |= FORCED;
+    }
+    s.scs.fault_reason = Some(format!(
+        "{name}{}: {} at PC {:#010x}",
+        if exc == HARD_FAULT {
+            " (escalated to HardFault)"
+        } else {
+            ""
+        },
+        f.why,
+        f.at
+    ));
+    enter(uc, exc, f.at)
 }
 
 /// Returns from the innermost exception through `exc_return` (the value

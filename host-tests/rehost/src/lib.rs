@@ -18,6 +18,7 @@ pub mod iwdg;
 pub mod lan8742;
 pub mod link;
 pub mod machine;
+pub mod mpu;
 pub mod rng;
 pub mod robot;
 pub mod rtt;

@@ -11,7 +11,7 @@ use crate::access::{bus_read, bus_write};
 use crate::bus::{Bus, Shared};
 use crate::chip::{Access, Chip};
 use crate::clocks::Clocks;
-use crate::exceptions::{self, Active, HARD_FAULT};
+use crate::exceptions::{self, Active, Fault, UNDEFINSTR, USAGE_FAULT};
 use crate::image::Image;
 use crate::scs::Scs;
 pub use crate::stop::Stop;
@@ -41,8 +41,14 @@ pub struct State {
     pub exceptions_taken: u64,
     /// The handler branched to this EXC_RETURN value.
     pub exception_return: Option<u32>,
-    /// A fault to take: (exception, return address, why).
-    pub fault: Option<(u32, u32, &'static str)>,
+    /// A fault to take before the next instruction.
+    pub fault: Option<Fault>,
+    /// The ranges the MPU forbids writes to, and the pages of RAM
+    /// protected in unicorn so that every store into them is checked
+    /// ([`crate::mpu`]); the MPU registers they were computed from.
+    pub mpu_denied: Vec<crate::mpu::Denied>,
+    pub mpu_pages: Vec<u64>,
+    pub mpu_seen: (u32, [crate::scs::MpuRegion; 16]),
     /// The core reached WFI or WFE: (its address, its size, WFE?).
     pub sleeping: Option<(u32, u32, bool)>,
     /// The event register (SEV, exception return) that WFE consumes.
@@ -121,6 +127,9 @@ impl Machine {
             exceptions_taken: 0,
             exception_return: None,
             fault: None,
+            mpu_denied: Vec::new(),
+            mpu_pages: Vec::new(),
+            mpu_seen: (0, [crate::scs::MpuRegion::default(); 16]),
             sleeping: None,
             event: false,
             slept: 0,
@@ -202,6 +211,9 @@ impl Machine {
             0,
             |uc, kind, addr, size, _value| {
                 let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
+                if kind == MemType::WRITE_PROT && crate::mpu::guarded_page(uc, addr) {
+                    return crate::mpu::on_write(uc, addr, size, _value);
+                }
                 let what = match kind {
                     MemType::WRITE_PROT => "a write into flash (read-only to the core)".to_string(),
                     MemType::FETCH_UNMAPPED | MemType::FETCH_PROT => {
@@ -254,11 +266,13 @@ impl Machine {
                 // EXCP_UDEF: an undefined instruction, a UsageFault that
                 // escalates to HardFault (UsageFault is not enabled).
                 1 => {
-                    s.fault = Some((
-                        HARD_FAULT,
-                        pc as u32,
-                        "an undefined instruction (UsageFault, escalated)",
-                    ))
+                    s.fault = Some(Fault {
+                        exc: USAGE_FAULT,
+                        at: pc as u32,
+                        why: "an undefined instruction".to_string(),
+                        cfsr: UNDEFINSTR,
+                        mmfar: None,
+                    })
                 }
                 _ => s.refuse(
                     format!(
@@ -331,7 +345,9 @@ impl Machine {
             let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
             let s = self.uc.get_data_mut();
             if let Err(err) = result {
-                if s.stop.is_none() {
+                // A store the MPU refused stops unicorn with an error; the
+                // fault is taken next.
+                if s.stop.is_none() && s.fault.is_none() {
                     s.refuse(format!("unicorn stopped: {err:?}"), None, pc);
                 }
             }
@@ -395,20 +411,20 @@ impl Machine {
         if let Some(ret) = uc.get_data_mut().exception_return.take() {
             exceptions::leave(uc, ret)?;
         }
-        if let Some((exc, at, why)) = uc.get_data_mut().fault.take() {
-            if uc
-                .get_data()
-                .active
-                .stack
-                .iter()
-                .any(|&(e, _)| e == HARD_FAULT)
-            {
-                return Err(format!(
-                    "{why} inside the HardFault handler: the core locks up"
-                ));
-            }
-            uc.get_data_mut().scs.fault_reason = Some(why);
-            exceptions::enter(uc, exc, at)?;
+        if let Some(fault) = uc.get_data_mut().fault.take() {
+            exceptions::take_fault(uc, fault)?;
+        }
+        crate::mpu::sync(uc)?;
+        if uc.get_data().scs.reset_requested {
+            let s = uc.get_data();
+            return Err(format!(
+                "the image reset the chip (SCB_AIRCR SYSRESETREQ){}: resets are not modelled",
+                s.scs
+                    .fault_reason
+                    .as_ref()
+                    .map(|f| format!(" after {f}"))
+                    .unwrap_or_default()
+            ));
         }
         if let Some((pc, size, wfe)) = uc.get_data_mut().sleeping.take() {
             let s = uc.get_data_mut();

@@ -164,6 +164,14 @@ fn main() {
                 if let Some(e) = &d.first_error {
                     println!("robot: first error: {e}");
                 }
+                if let Some(want) = &args.expect_stop {
+                    fail(
+                        1,
+                        &format!(
+                            "expected a stop naming {want:?}; the robot's run ended without one"
+                        ),
+                    );
+                }
                 let ok = d.lost() == 0 && d.wrong == 0 && d.late == 0;
                 std::process::exit(if ok { 0 } else { 1 });
             }

@@ -91,8 +91,15 @@ pub struct Scs {
     pub mpu_regions: u32,
     /// SysTick's exception is pending (ICSR PENDSTSET).
     pub systick_pending: bool,
-    /// Why the last fault was taken (for CFSR/HFSR and the report).
-    pub fault_reason: Option<&'static str>,
+    /// Why the last fault was taken, and as which exception (for the
+    /// report when the image resets after it).
+    pub fault_reason: Option<String>,
+    /// The fault status and address registers (B3.2.15-B3.2.18): CFSR
+    /// (MMFSR, BFSR, UFSR), HFSR, MMFAR; written by the faults the model
+    /// takes, cleared by writing ones.
+    pub cfsr: u32,
+    pub hfsr: u32,
+    pub mmfar: u32,
     /// A software reset was requested (AIRCR.SYSRESETREQ).
     pub reset_requested: bool,
 }
@@ -138,6 +145,9 @@ impl Scs {
             systick_pending: false,
             mpu_regions: 8,
             fault_reason: None,
+            cfsr: 0,
+            hfsr: 0,
+            mmfar: 0,
         }
     }
 
@@ -187,9 +197,13 @@ impl Scs {
                 ])
             }
             0xE000_ED24 => self.shcsr,
-            0xE000_ED28..=0xE000_ED3C => 0, // CFSR, HFSR, DFSR, MMFAR, BFAR, AFSR: no fault recorded
-            0xE000_ED78 => 0x0900_0003,     // CLIDR: L1 instruction and data caches
-            0xE000_ED7C => 0x8303_C003,     // CTR
+            0xE000_ED28 => self.cfsr,
+            0xE000_ED2C => self.hfsr,
+            0xE000_ED34 => self.mmfar,
+            // DFSR, BFAR, AFSR: no debug event or bus fault is modelled.
+            0xE000_ED30 | 0xE000_ED38 | 0xE000_ED3C => 0,
+            0xE000_ED78 => 0x0900_0003, // CLIDR: L1 instruction and data caches
+            0xE000_ED7C => 0x8303_C003, // CTR
             0xE000_ED80 => {
                 // CCSIDR for CSSELR: 16 KiB 4-way data / 16 KiB 2-way instruction, 32-byte lines.
                 if self.csselr & 1 == 0 {
@@ -282,7 +296,12 @@ impl Scs {
                 }
             }
             0xE000_ED24 => self.shcsr = v,
-            0xE000_ED28..=0xE000_ED3C => {} // fault status: write-one-to-clear, nothing recorded
+            // Write-one-to-clear: a byte write (MMFSR, BFSR) clears only
+            // the ones it writes.
+            0xE000_ED28 => self.cfsr &= !widen(0, addr, size, value),
+            0xE000_ED2C => self.hfsr &= !widen(0, addr, size, value),
+            0xE000_ED34 => self.mmfar = v,
+            0xE000_ED30 | 0xE000_ED38 | 0xE000_ED3C => {}
             0xE000_ED84 => self.csselr = v & 1,
             0xE000_ED88 => self.cpacr = v & 0x00F0_0000,
             0xE000_ED94 => self.mpu_ctrl = v & 7,

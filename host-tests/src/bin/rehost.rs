@@ -44,6 +44,22 @@ fn main() -> ExitCode {
             let result = rehost::broken_image(variant).and_then(|elf| {
                 let mut a = args.clone();
                 a.extend(["--expect-stop".to_string(), variant.expect.to_string()]);
+                if variant.traffic {
+                    // The robot of the manual's device, for a few messages.
+                    let setup = host_tests::demo::Setup::new(false)?;
+                    a.extend([
+                        "--device".to_string(),
+                        format!(
+                            "{}:{}",
+                            setup.device.network.address, setup.device.channel.port
+                        ),
+                        "--gsi".to_string(),
+                        setup.gsi.display().to_string(),
+                        "--robot".to_string(),
+                        "20".to_string(),
+                        "--deterministic".to_string(),
+                    ]);
+                }
                 rehost::run_engine(&engine, variant.board, &elf, &a)
             });
             match result {

@@ -119,6 +119,9 @@ impl Eth {
         else {
             return Ok(false);
         };
+        // Checked at every frame, not only when the MAC starts: a pin
+        // moved off its alternate function later garbles every frame.
+        super::wired(cx, false, "a frame on the wire")?;
         let cr = self.regs.get(MACCR);
         let (mbit, full) = (if cr & FES != 0 { 100 } else { 10 }, cr & DM != 0);
         if (mbit, full) != (mode.mbit, mode.full_duplex) {

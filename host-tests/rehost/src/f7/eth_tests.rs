@@ -212,3 +212,17 @@ fn the_mac_needs_its_pins_and_mdio_its_own() {
     let e = b.wr(T0, MACMIIAR, 0b100 << 2 | MB).unwrap_err();
     assert!(e.contains("PA2 (RMII_MDIO)"), "{e}");
 }
+
+#[test]
+fn a_pin_moved_off_af11_after_the_start_refuses_the_next_frame() {
+    let mut b = Bench::started(true);
+    let d0 = RAM + 0x100;
+    b.0.put(d0, &[OWN | T_FS | T_LS | TCH | TER, 60, RAM + 0x1000, d0]);
+    b.1.wiring.pins[6][13] = (2, 10);
+    let e = b.wr(T0 + 2000, DMATPDR, 1).unwrap_err();
+    assert!(
+        e.contains("a frame on the wire") && e.contains("PG13 (RMII_TXD0) is in mode 2 with AF10"),
+        "{e}"
+    );
+    assert!(b.1.link.from_device.is_empty());
+}

@@ -93,6 +93,9 @@ impl Eth {
         if !(cx.link.cable && self.phy.link_up(cx.now)) {
             return Ok(false);
         }
+        // Checked at every frame, not only when the MAC starts: a pin
+        // moved off its alternate function later garbles every frame.
+        self.check_wiring(cx, "a frame on the wire")?;
         let fes = self.regs.get(MACCR) & FES != 0;
         match self.phy.mode() {
             Some(mode) if (mode.mbit == 100) != fes => Err(format!(

@@ -287,3 +287,20 @@ fn an_rmii_pin_on_the_wrong_alternate_function_refuses_the_mac_enable() {
     assert!(e.contains("PG13 (RMII_TXD0)"), "{e}");
     assert_eq!(rig.read(MACCR) & (TE | RE), 0);
 }
+
+#[test]
+fn a_pin_moved_off_af11_after_the_start_refuses_the_next_frame() {
+    let mut rig = Rig::new();
+    rig.start(RX_RING + 3 * 16);
+    rig.mem.write(TX_BUF, &[0xA5; 64]).unwrap();
+    rig.set_word(TX_RING, TX_BUF);
+    rig.set_word(TX_RING + 8, 64);
+    rig.set_word(TX_RING + 12, OWN | FD | LD | 64);
+    rig.shared.wiring.pins[6][13] = (2, 10);
+    let e = rig.access(DMACTDTPR, Some(TX_RING + 16)).unwrap_err();
+    assert!(
+        e.contains("a frame on the wire") && e.contains("PG13 (RMII_TXD0) is in mode 2 with AF10"),
+        "{e}"
+    );
+    assert!(rig.shared.link.from_device.is_empty());
+}
