@@ -481,7 +481,7 @@ fn warm_up(
     let mut quiet = Vec::new();
     let (s, _) = run(&w, device, &mut quiet)?;
     println!(
-        "== warm-up (timing not judged; QEMU translates the firmware's code on first use): sent {} answered {} late {} latency us median {} max {}",
+        "== warm-up (timing not judged; an emulator translates the firmware's code on first use): sent {} answered {} late {} latency us median {} max {}",
         s.sent, s.answered, s.late, s.latency_us.median, s.latency_us.max
     );
     if s.answered == 0 {

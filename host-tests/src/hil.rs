@@ -18,8 +18,12 @@ pub struct HilBoard {
     pub key: &'static str,
     /// The hal-board feature.
     pub feature: &'static str,
-    /// probe-rs's chip name; `None`: the QEMU board.
+    /// probe-rs's chip name, for a real board.
     pub chip: Option<&'static str>,
+    /// The rehosting engine's board (`cargo rehost -- --board`), for the
+    /// image run on the model of its chip. Neither this nor `chip`: the
+    /// QEMU board.
+    pub rehosted: Option<&'static str>,
     /// The board's name in [`crate::boards::BOARDS`] (its memory map and
     /// placement rules), for the real boards.
     pub map: Option<&'static str>,
@@ -30,11 +34,12 @@ pub struct HilBoard {
 }
 
 /// The boards: QEMU's, tested in CI, and the two NUCLEOs.
-pub const HIL_BOARDS: [HilBoard; 3] = [
+pub const HIL_BOARDS: [HilBoard; 5] = [
     HilBoard {
         key: "qemu",
         feature: "hal-board/mps2-an500",
         chip: None,
+        rehosted: None,
         map: None,
         counter_hz: 25_000_000,
         counter: "counts of QEMU's 25 MHz timer in real time: how fast this host emulates the board, not an MCU's figures",
@@ -43,6 +48,7 @@ pub const HIL_BOARDS: [HilBoard; 3] = [
         key: "f767",
         feature: "hal-board/nucleo-f767zi",
         chip: Some("STM32F767ZITx"),
+        rehosted: None,
         map: Some("nucleo-f767zi"),
         counter_hz: 216_000_000,
         counter: "DWT core cycles at 216 MHz",
@@ -51,11 +57,37 @@ pub const HIL_BOARDS: [HilBoard; 3] = [
         key: "h743",
         feature: "hal-board/nucleo-h743zi",
         chip: Some("STM32H743ZITx"),
+        rehosted: None,
         map: Some("nucleo-h743zi"),
         counter_hz: 400_000_000,
         counter: "DWT core cycles at 400 MHz",
     },
+    HilBoard {
+        key: "f767-rehosted",
+        feature: "hal-board/nucleo-f767zi",
+        chip: None,
+        rehosted: Some("f767"),
+        map: Some("nucleo-f767zi"),
+        counter_hz: 216_000_000,
+        counter: "DWT cycles of the model of the chip (one instruction a cycle; no cache, flash or bus timing): not the board's",
+    },
+    HilBoard {
+        key: "h743-rehosted",
+        feature: "hal-board/nucleo-h743zi",
+        chip: None,
+        rehosted: Some("h743"),
+        map: Some("nucleo-h743zi"),
+        counter_hz: 400_000_000,
+        counter: "DWT cycles of the model of the chip (one instruction a cycle; no cache, flash or bus timing): not the board's",
+    },
 ];
+
+impl HilBoard {
+    /// QEMU's board (neither a probe's chip nor a rehosted image).
+    pub fn is_qemu(&self) -> bool {
+        self.chip.is_none() && self.rehosted.is_none()
+    }
+}
 
 /// The board with `--board` value `key`.
 pub fn board(key: &str) -> Option<&'static HilBoard> {

@@ -338,18 +338,29 @@ pub fn boot(
     board: &str,
     setup: &crate::demo::Setup,
 ) -> Result<(Rehosted, std::net::SocketAddr, Option<std::net::SocketAddr>), String> {
-    ensure_build_tools(&mut std::io::stdout())?;
-    let engine = build_engine()?;
     let elf = match &setup.build_gsi {
         Some(gsi) => tcp_image(board, gsi)?,
         None => board_image(board)?,
     };
+    boot_elf(board, setup, &elf, &[])
+}
+
+/// Boots the image `elf` (built for `setup`'s device) on the engine, with
+/// `extra` engine arguments (`--resets N`).
+pub fn boot_elf(
+    board: &str,
+    setup: &crate::demo::Setup,
+    elf: &Path,
+    extra: &[&str],
+) -> Result<(Rehosted, std::net::SocketAddr, Option<std::net::SocketAddr>), String> {
+    ensure_build_tools(&mut std::io::stdout())?;
+    let engine = build_engine()?;
     let robot = crate::qemu::free_port()?;
     let http = crate::qemu::free_tcp_port()?;
     let mut cmd = Command::new(&engine);
     cmd.current_dir(crate::workspace())
         .args(["--board", board, "--elf"])
-        .arg(&elf)
+        .arg(elf)
         .args([
             "--device",
             &format!(
@@ -365,7 +376,8 @@ pub fn boot(
             "--http",
             &format!("127.0.0.1:{http}"),
         ])
-        .args(["--log-prefix", ""]);
+        .args(["--log-prefix", ""])
+        .args(extra);
     if setup.device.channel.protocol == gsi_config::Protocol::Tcp {
         cmd.arg("--tcp");
     }

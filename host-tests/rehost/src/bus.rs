@@ -25,6 +25,20 @@ pub struct Cx<'a> {
     pub link: &'a mut Link,
     /// Memory as a DMA master sees it.
     pub dma: &'a mut dyn Dma,
+    /// A model resets the chip (the watchdog expired).
+    pub reset: &'a mut Option<ResetCause>,
+}
+
+/// Why the chip resets: a system reset, which restarts the core and every
+/// peripheral but keeps the RAM, the backup domain and RCC's reset flags
+/// (RM0410 §5.1.2, RM0433 §8.4.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResetCause {
+    /// SCB_AIRCR SYSRESETREQ.
+    Software,
+    /// The independent watchdog counted down to zero, this long after its
+    /// last reload.
+    Watchdog { after_ms: u64 },
 }
 
 /// Memory as a bus master other than the core sees it (the Ethernet
@@ -60,6 +74,7 @@ pub struct Shared {
     pub raised: Vec<u32>,
     pub wiring: Wiring,
     pub link: Link,
+    pub reset: Option<ResetCause>,
 }
 
 impl Shared {
@@ -72,6 +87,7 @@ impl Shared {
             wiring: &mut self.wiring,
             link: &mut self.link,
             dma,
+            reset: &mut self.reset,
         }
     }
 }
@@ -91,6 +107,16 @@ pub trait Peripheral {
     }
     /// The next virtual time (cycles) at which this model has something
     /// to do by itself (a timer's compare, a ready bit), for WFI.
+    /// The reset flags a system reset keeps (RCC only: RCC_CSR on the F7,
+    /// RCC_RSR on the H7).
+    fn reset_flags(&self) -> Option<u32> {
+        None
+    }
+
+    /// After a system reset, in the model built anew: the flags kept from
+    /// before with `cause`'s added (RCC only).
+    fn keep_reset_flags(&mut self, _kept: u32, _cause: ResetCause) {}
+
     fn next_event(&self, _now: u64) -> Option<u64> {
         None
     }

@@ -2,10 +2,10 @@
 //! layout): started by 0xCCCC in KR, PR/RLR/WINR writable only after
 //! 0x5555 (otherwise silicon ignores the write: it stops the run here),
 //! the counter running down from RLR at the LSI's 32 kHz divided by the
-//! prescaler, 0xAAAA reloading it. When it reaches zero the chip resets:
-//! the machine stops the run and says so (its reset is not modelled yet).
+//! prescaler, 0xAAAA reloading it. When it reaches zero the chip resets
+//! (the machine restarts it, or stops where the run allows no reset).
 
-use crate::bus::{Cx, Peripheral, Refusal};
+use crate::bus::{Cx, Peripheral, Refusal, ResetCause};
 
 const KR: u32 = 0x00;
 const PR: u32 = 0x04;
@@ -99,10 +99,12 @@ impl Peripheral for Iwdg {
     fn advance(&mut self, cx: &mut Cx) -> Result<(), Refusal> {
         if let Some(at) = self.reloaded_at {
             if cx.now >= at + self.timeout() {
-                return Err(format!(
-                    "the independent watchdog expired ({} ms without a reload): the chip resets (a reset is not modelled yet)",
-                    self.timeout() * 1000 / self.core_hz
-                ));
+                // The machine restarts the chip (or stops, if the run
+                // allows no reset), naming the timeout.
+                *cx.reset = Some(ResetCause::Watchdog {
+                    after_ms: self.timeout() * 1000 / self.core_hz,
+                });
+                self.reloaded_at = None;
             }
         }
         Ok(())
@@ -110,5 +112,31 @@ impl Peripheral for Iwdg {
 
     fn next_event(&self, _now: u64) -> Option<u64> {
         self.reloaded_at.map(|at| at + self.timeout())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::{no_dma, Shared};
+
+    #[test]
+    fn an_expired_watchdog_resets_the_chip_once() {
+        let mut w = Iwdg::new("IWDG");
+        let mut shared = Shared::default();
+        shared.clocks.core_hz = 16_000_000;
+        let mut cx = shared.cx(0, no_dma());
+        w.write(KR, 4, 0xCCCC, &mut cx).unwrap();
+        // PR 0 (/4), RLR 0xFFF: 4096 * 4 / 32 kHz = 512 ms.
+        let timeout = 4096 * 4 * 16_000_000 / LSI_HZ;
+        let mut cx = shared.cx(timeout - 1, no_dma());
+        w.advance(&mut cx).unwrap();
+        assert_eq!(*cx.reset, None, "not yet");
+        let mut cx = shared.cx(timeout, no_dma());
+        w.advance(&mut cx).unwrap();
+        assert_eq!(*cx.reset, Some(ResetCause::Watchdog { after_ms: 512 }));
+        *cx.reset = None;
+        w.advance(&mut cx).unwrap();
+        assert_eq!(*cx.reset, None, "stopped until started again");
     }
 }

@@ -19,6 +19,7 @@ pub mod lan8742;
 pub mod link;
 pub mod machine;
 pub mod mpu;
+pub mod reset;
 pub mod rng;
 pub mod robot;
 pub mod rtt;

@@ -8,7 +8,7 @@
 //! the PC and the function the PC is in) and by which rule.
 
 use crate::access::{bus_read, bus_write};
-use crate::bus::{Bus, Shared};
+use crate::bus::{Bus, ResetCause, Shared};
 use crate::chip::{Access, Chip};
 use crate::clocks::Clocks;
 use crate::exceptions::{self, Active, Fault, UNDEFINSTR, USAGE_FAULT};
@@ -102,6 +102,15 @@ pub struct Machine {
     /// latencies are measured at slice ends).
     pub fine_slices: bool,
     started: std::time::Instant,
+    /// The chip's peripherals at their reset values, for a system reset;
+    /// `None`: a reset stops the run.
+    pub rebuild: Option<fn() -> (Bus, Clocks)>,
+    /// System resets still allowed before a reset stops the run (a loop
+    /// of resets is a defect worth stopping at).
+    pub resets_left: u32,
+    /// What the machine itself has to say (a reset and why), not yet
+    /// taken by [`Machine::take_notes`].
+    pub notes: Vec<String>,
 }
 
 impl Machine {
@@ -289,18 +298,7 @@ impl Machine {
         crate::hooks::install_instruction_hooks(&mut uc, &image)?;
         uc.get_data_mut().scs.vtor = chip.vtor;
         uc.get_data_mut().scs.mpu_regions = chip.mpu_regions;
-        let sp = image
-            .word(u64::from(chip.boot))
-            .ok_or("no vector table at the boot address")?;
-        let reset = image
-            .word(u64::from(chip.boot) + 4)
-            .ok_or("no reset vector")?;
-        uc.reg_write(RegisterARM::MSP, u64::from(sp))
-            .map_err(e("MSP"))?;
-        uc.reg_write(RegisterARM::SP, u64::from(sp))
-            .map_err(e("SP"))?;
-        uc.reg_write(RegisterARM::PC, u64::from(reset & !1))
-            .map_err(e("PC"))?;
+        crate::reset::reset_core(&mut uc)?;
         Ok(Machine {
             uc,
             bridge: None,
@@ -311,6 +309,9 @@ impl Machine {
             time_at: 0,
             fine_slices: false,
             started: std::time::Instant::now(),
+            rebuild: None,
+            resets_left: 0,
+            notes: Vec::new(),
         })
     }
 
@@ -344,7 +345,19 @@ impl Machine {
             let result = self.uc.emu_start(pc | 1, 0, 0, 0);
             let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
             let s = self.uc.get_data_mut();
-            if let Err(err) = result {
+            if result == Err(unicorn_engine::uc_error::INSN_INVALID) && s.fault.is_none() {
+                // An undefined instruction: unicorn stops on it with this
+                // error (not its interrupt hook); silicon takes UsageFault
+                // with UNDEFINSTR (B1.5.14). Unicorn's M7 decodes what the
+                // M7 does (tests/cpu.rs), so this is the image's.
+                s.fault = Some(Fault {
+                    exc: USAGE_FAULT,
+                    at: pc as u32,
+                    why: "an undefined instruction".to_string(),
+                    cfsr: UNDEFINSTR,
+                    mmfar: None,
+                });
+            } else if let Err(err) = result {
                 // A store the MPU refused stops unicorn with an error; the
                 // fault is taken next.
                 if s.stop.is_none() && s.fault.is_none() {
@@ -405,6 +418,56 @@ impl Machine {
     /// What happens between two slices of execution: an exception
     /// return, a fault, sleep until the next event, time moved on for
     /// every model, and the pending exceptions taken.
+    /// A system reset a model or the core asked for: the chip restarted
+    /// ([`crate::reset`]) while the run allows it, else the run stops
+    /// naming it and the fault before it.
+    fn take_reset(&mut self) -> Result<(), String> {
+        let s = self.uc.get_data_mut();
+        let cause = if s.scs.reset_requested {
+            Some(ResetCause::Software)
+        } else {
+            s.shared.reset.take()
+        };
+        let Some(cause) = cause else {
+            return Ok(());
+        };
+        let why = match cause {
+            ResetCause::Software => "SCB_AIRCR SYSRESETREQ".to_string(),
+            ResetCause::Watchdog { after_ms } => {
+                format!("the independent watchdog expired, {after_ms} ms without a reload")
+            }
+        };
+        let after = s
+            .scs
+            .fault_reason
+            .as_ref()
+            .map(|f| format!(" after {f}"))
+            .unwrap_or_default();
+        match self.rebuild {
+            Some(fresh) if self.resets_left > 0 => {
+                self.resets_left -= 1;
+                self.notes.push(format!(
+                    "system reset at cycle {} ({why}{after}): the core restarts, the peripherals at their reset values, the RAM kept",
+                    s.now
+                ));
+                crate::reset::system_reset(&mut self.uc, cause, fresh())
+            }
+            _ => Err(format!(
+                "the chip resets ({why}){after}; this run allows no {}reset (--resets N)",
+                if self.rebuild.is_some() {
+                    "further "
+                } else {
+                    ""
+                }
+            )),
+        }
+    }
+
+    /// What the machine said since the last call (resets).
+    pub fn take_notes(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.notes)
+    }
+
     fn between_slices(&mut self, deadline: u64) -> Result<(), String> {
         let slice = self.slice();
         let uc = &mut self.uc;
@@ -415,17 +478,8 @@ impl Machine {
             exceptions::take_fault(uc, fault)?;
         }
         crate::mpu::sync(uc)?;
-        if uc.get_data().scs.reset_requested {
-            let s = uc.get_data();
-            return Err(format!(
-                "the image reset the chip (SCB_AIRCR SYSRESETREQ){}: resets are not modelled",
-                s.scs
-                    .fault_reason
-                    .as_ref()
-                    .map(|f| format!(" after {f}"))
-                    .unwrap_or_default()
-            ));
-        }
+        self.take_reset()?;
+        let uc = &mut self.uc;
         if let Some((pc, size, wfe)) = uc.get_data_mut().sleeping.take() {
             let s = uc.get_data_mut();
             if wfe && s.event {

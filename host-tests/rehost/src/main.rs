@@ -63,6 +63,12 @@ struct Args {
     /// What each line of the device's log starts with.
     #[arg(long, default_value = "device: ")]
     log_prefix: String,
+    /// System resets (SYSRESETREQ, the watchdog) the chip may go through,
+    /// each restarting the core and the peripherals with the RAM kept;
+    /// the next one stops the run. 0 (the default): the first reset stops
+    /// it, naming its cause.
+    #[arg(long, default_value_t = 0)]
+    resets: u32,
     /// Print the device's log (defmt over RTT) as `device:` lines.
     #[arg(long, default_value_t = true)]
     log: bool,
@@ -77,9 +83,9 @@ fn main() {
     });
     args.cycles = Some(cycles);
     let cycles_limit = cycles;
-    let (parts, chip, dir) = match args.board.as_str() {
-        "f767" => (rri_rehost::f7::bus(), chip::STM32F767ZI, "nucleo-f767zi"),
-        "h743" => (rri_rehost::h7::bus(), chip::STM32H743ZI, "nucleo-h743zi"),
+    let (rebuild, chip, dir): (fn() -> _, _, _) = match args.board.as_str() {
+        "f767" => (rri_rehost::f7::bus, chip::STM32F767ZI, "nucleo-f767zi"),
+        "h743" => (rri_rehost::h7::bus, chip::STM32H743ZI, "nucleo-h743zi"),
         other => fail(2, &format!("no board {other:?} (f767 or h743)")),
     };
     let elf = args.elf.unwrap_or_else(|| {
@@ -93,8 +99,10 @@ fn main() {
             .symbol(name)
             .unwrap_or_else(|| fail(2, &format!("{}: no symbol {name:?}", elf.display())))
     });
-    let (bus, clocks) = parts;
+    let (bus, clocks) = rebuild();
     let mut m = Machine::new(chip, image, bus, clocks).unwrap_or_else(|e| fail(2, &e));
+    m.rebuild = Some(rebuild);
+    m.resets_left = args.resets;
     if let Some(addr) = until {
         m.stop_at(addr).unwrap_or_else(|e| fail(2, &e));
     }
@@ -175,6 +183,9 @@ fn main() {
                 let ok = d.lost() == 0 && d.wrong == 0 && d.late == 0;
                 std::process::exit(if ok { 0 } else { 1 });
             }
+        }
+        for note in m.take_notes() {
+            println!("rehost: {note}");
         }
         for line in m.take_log() {
             println!("{}{line}", args.log_prefix);

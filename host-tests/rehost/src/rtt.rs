@@ -66,7 +66,13 @@ impl Rtt {
                         .level()
                         .map(|l| l.as_str().to_uppercase())
                         .unwrap_or_default();
-                    lines.push(format!("{level:<5} {}", frame.display_message()));
+                    // probe-rs's `--log-format "[{t} {L}] {s}"`, which
+                    // `cargo hil` and `cargo demo` read on a real board.
+                    let t = frame
+                        .display_timestamp()
+                        .map(|t| t.to_string())
+                        .unwrap_or_default();
+                    lines.push(format!("[{t} {level}] {}", frame.display_message()));
                 }
                 Err(defmt_decoder::DecodeError::UnexpectedEof) => break,
                 Err(defmt_decoder::DecodeError::Malformed) => {

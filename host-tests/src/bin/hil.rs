@@ -46,8 +46,9 @@ const NOTHING_TO_RUN_ON: u8 = 4;
     about = "Build, flash and run the firmware on a NUCLEO board (probe-rs) or the QEMU board, drive it with the robot simulator, and report the device's own latency and stack margin"
 )]
 struct Args {
-    /// The board: f767 (NUCLEO-F767ZI), h743 (NUCLEO-H743ZI2) or qemu (QEMU's mps2-an500).
-    #[arg(long, value_parser = ["f767", "h743", "qemu"])]
+    /// The board: f767 (NUCLEO-F767ZI), h743 (NUCLEO-H743ZI2), qemu (QEMU's mps2-an500), or
+    /// f767-rehosted / h743-rehosted (the NUCLEO image on the model of its chip, `cargo rehost`).
+    #[arg(long, value_parser = ["f767", "h743", "qemu", "f767-rehosted", "h743-rehosted"])]
     board: String,
     /// The device's address, ADDR or ADDR:PORT (default: Description.xml's Network Address and
     /// the channel's port). Not for qemu (its port is forwarded from 127.0.0.1).
@@ -96,7 +97,7 @@ fn main() -> ExitCode {
             return ExitCode::from(NOTHING_TO_RUN_ON);
         }
     } else if args.to.is_some() || args.probe.is_some() {
-        eprintln!("error: --to and --probe are for the NUCLEO boards (QEMU's port is forwarded from 127.0.0.1)");
+        eprintln!("error: --to and --probe are for the NUCLEO boards (QEMU's and the rehosted boards' ports are forwarded from 127.0.0.1)");
         return ExitCode::from(2);
     }
     match hil_run(board, &args) {
@@ -107,7 +108,7 @@ fn main() -> ExitCode {
 
 fn hil_run(board: &HilBoard, args: &Args) -> Result<(), Failure> {
     let mut out = std::io::stdout();
-    if board.chip.is_none() {
+    if board.is_qemu() {
         qemu::ensure_qemu(&mut out)?;
     }
     let setup = Setup::new(args.run.tcp)?;
@@ -125,7 +126,7 @@ fn hil_run(board: &HilBoard, args: &Args) -> Result<(), Failure> {
     }
     let mut dev = dev;
     let mut ready = Vec::new();
-    if board.chip.is_some() {
+    if !board.is_qemu() {
         // Flashing comes first, then the banner; the link takes the PHY's
         // auto-negotiation (about 2 s).
         wait(&mut *dev, "rri-sensor", 60, "")?;
@@ -143,10 +144,10 @@ fn hil_run(board: &HilBoard, args: &Args) -> Result<(), Failure> {
     }
     println!(
         "== driving {} at {to}",
-        if board.chip.is_some() {
-            "the board"
-        } else {
-            "the QEMU board"
+        match (board.chip, board.rehosted) {
+            (Some(_), _) => "the board",
+            (None, Some(_)) => "the image rehosted on the model of its chip",
+            (None, None) => "the QEMU board",
         }
     );
     // Without a probe, the device's own figures come from /status.json,
@@ -181,7 +182,7 @@ fn build(board: &HilBoard, args: &Args, setup: &Setup) -> Result<PathBuf, String
     extra.extend(args.features.iter().map(String::as_str));
     // A larger RTT buffer for the bench's line per message (the log never
     // blocks the firmware: a full buffer drops lines).
-    let env: &[(&str, &str)] = if board.chip.is_some() {
+    let env: &[(&str, &str)] = if !board.is_qemu() {
         &[("DEFMT_RTT_BUFFER_SIZE", "4096")]
     } else {
         &[]
@@ -250,10 +251,20 @@ fn start(board: &HilBoard, args: &Args, setup: &Setup, elf: PathBuf) -> Result<S
             let http = SocketAddr::new(to.ip(), qemu::HTTP_PORT);
             Ok((Box::new(ProbeRun::start(cmd)?), to, Some(http)))
         }
-        None => {
-            let (board, to, http) = qemu::boot_local(elf, &setup.device)?;
-            Ok((Box::new(board), to, http))
-        }
+        None => match board.rehosted {
+            Some(engine_board) => {
+                // `--fault` restarts the chip twice (the fault, then the
+                // stack overflow): the model restarts it as often.
+                let resets = if args.fault { "2" } else { "0" };
+                let (dev, to, http) =
+                    host_tests::rehost::boot_elf(engine_board, setup, &elf, &["--resets", resets])?;
+                Ok((Box::new(dev), to, http))
+            }
+            None => {
+                let (board, to, http) = qemu::boot_local(elf, &setup.device)?;
+                Ok((Box::new(board), to, http))
+            }
+        },
     }
 }
 
@@ -285,6 +296,8 @@ fn wait(dev: &mut dyn Device, needle: &str, seconds: u64, hint: &str) -> Result<
 
 /// `--fault`: the handler's log line, and on QEMU the restart.
 fn fault(mut dev: Box<dyn Device>, board: &HilBoard) -> Result<(), Failure> {
+    // A real board's restart ends probe-rs's run; QEMU and the model
+    // restart and go on logging.
     let restart_visible = board.chip.is_none();
     let result = hil::fault_check(&mut *dev, Duration::from_secs(60), restart_visible);
     for line in dev.stop() {

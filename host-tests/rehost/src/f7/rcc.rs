@@ -10,7 +10,7 @@
 //! their ranges stop the run (DS11532 Table 39: PLL input 0.95-2.1 MHz,
 //! VCO output 100-432 MHz).
 
-use crate::bus::{reg, Cx, Peripheral, Refusal, Reg, Regs};
+use crate::bus::{reg, Cx, Peripheral, Refusal, Reg, Regs, ResetCause};
 use crate::clocks::mhz;
 
 pub const HSI_HZ: u64 = 16_000_000;
@@ -317,6 +317,23 @@ impl Peripheral for Rcc {
             }
         }
         self.update_clocks(cx)
+    }
+
+    /// RCC_CSR's flags (bits 31:25) survive a system reset; only RMVF or a
+    /// power-on clears them (RM0410 §5.3.21).
+    fn reset_flags(&self) -> Option<u32> {
+        Some(self.regs.get(CSR) & 0xFE00_0000)
+    }
+
+    /// A system reset drives NRST low (RM0410 §5.1.2), so PINRSTF joins
+    /// the cause's own flag: SFTRSTF (28) or IWDGRSTF (29).
+    fn keep_reset_flags(&mut self, kept: u32, cause: ResetCause) {
+        let own = match cause {
+            ResetCause::Software => 1 << 28,
+            ResetCause::Watchdog { .. } => 1 << 29,
+        };
+        let csr = self.regs.get(CSR) & !0xFE00_0000;
+        self.regs.set(CSR, csr | kept | own | (1 << 26));
     }
 
     fn next_event(&self, _now: u64) -> Option<u64> {

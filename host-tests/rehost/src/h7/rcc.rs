@@ -15,7 +15,7 @@
 //! What the manual forbids outright (PLLxDIVR, PLLxVCOSEL, PLLxRGE written
 //! while PLLx runs; HSEBYP with the HSE on) stops the run.
 
-use crate::bus::{reg, Cx, Peripheral, Refusal, Reg, Regs};
+use crate::bus::{reg, Cx, Peripheral, Refusal, Reg, Regs, ResetCause};
 use crate::clocks::mhz;
 
 pub const HSI_HZ: u64 = 64_000_000;
@@ -445,6 +445,24 @@ impl Peripheral for Rcc {
         }
         self.switch();
         self.update_clocks(cx)
+    }
+
+    /// RCC_RSR's flags (bits 30:17) survive a system reset; only RMVF or a
+    /// power-on clears them (RM0433 §8.4.4, §8.7.37).
+    fn reset_flags(&self) -> Option<u32> {
+        Some(self.regs.get(RSR) & 0x7FFE_0000)
+    }
+
+    /// A system reset drives NRST low and resets the CPU (RM0433 §8.4.2,
+    /// "reset source identification"): PINRSTF (22) and CPURSTF (17) join
+    /// the cause's own flag, SFTRSTF (24) or IWDG1RSTF (26).
+    fn keep_reset_flags(&mut self, kept: u32, cause: ResetCause) {
+        let own = match cause {
+            ResetCause::Software => 1 << 24,
+            ResetCause::Watchdog { .. } => 1 << 26,
+        };
+        let rsr = self.regs.get(RSR) & !0x7FFE_0000;
+        self.regs.set(RSR, rsr | kept | own | (1 << 22) | (1 << 17));
     }
 
     fn next_event(&self, _now: u64) -> Option<u64> {
