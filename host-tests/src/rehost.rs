@@ -285,6 +285,47 @@ fn build_variant(
     crate::qemu::keep_image_from(&target, dir, name)
 }
 
+/// The bench image for `board` (the one `cargo hil -- --board
+/// <board>-rehosted` builds and runs: `target/hil/<board>-rehosted.elf`).
+pub fn bench_image(board: &str) -> Result<PathBuf, String> {
+    let feature = match board {
+        "f767" => "board,hal-board/nucleo-f767zi",
+        "h743" => "board,hal-board/nucleo-h743zi",
+        other => return Err(format!("no board {other:?} (f767 or h743)")),
+    };
+    crate::qemu::build_board(
+        feature,
+        &["bench"],
+        None,
+        &[("DEFMT_RTT_BUFFER_SIZE", "4096")],
+        "hil",
+        &format!("{board}-rehosted"),
+    )
+}
+
+/// Writes `cargo qemu-bench`'s corpus (its realistic and hostile
+/// messages, `{ID}` where the Id goes) in the engine's `--corpus` form to
+/// `target/rehost-corpus/corpus.txt`.
+pub fn corpus_file() -> Result<PathBuf, String> {
+    let ws = crate::workspace();
+    let mut inputs =
+        crate::qemu_bench::realistic(&crate::shared_rri(), &ws.join("host-tests/bench"))?;
+    inputs.extend(crate::qemu_bench::hostile());
+    let mut out = Vec::new();
+    for i in &inputs {
+        out.extend_from_slice(
+            format!("{}\n{}\n{}\n", i.name, u8::from(i.accepted), i.text.len()).as_bytes(),
+        );
+        out.extend_from_slice(i.text.as_bytes());
+        out.push(b'\n');
+    }
+    let dir = crate::qemu::target_dir().join("rehost-corpus");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let path = dir.join("corpus.txt");
+    std::fs::write(&path, out).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(path)
+}
+
 /// Runs the engine on `elf` with `args`; its exit status.
 pub fn run_engine(engine: &Path, board: &str, elf: &Path, args: &[String]) -> Result<i32, String> {
     let status = Command::new(engine)

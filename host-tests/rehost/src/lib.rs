@@ -8,6 +8,7 @@ pub mod bridge_phy;
 pub mod bus;
 pub mod chip;
 pub mod clocks;
+pub mod corpus;
 pub mod exceptions;
 pub mod f7;
 pub mod gpio;

@@ -69,6 +69,14 @@ struct Args {
     /// it, naming its cause.
     #[arg(long, default_value_t = 0)]
     resets: u32,
+    /// The bench's corpus (a file `cargo rehost -- --corpus` writes) sent
+    /// lock-step to a bench image in virtual time, each message
+    /// `--repeat` times; prints the device's own cycles per message.
+    #[arg(long)]
+    corpus: Option<PathBuf>,
+    /// How many times `--corpus` sends each message.
+    #[arg(long, default_value_t = 20)]
+    repeat: u32,
     /// Print the device's log (defmt over RTT) as `device:` lines.
     #[arg(long, default_value_t = true)]
     log: bool,
@@ -154,6 +162,20 @@ fn main() {
         m.fine_slices = true;
     }
     let mut driver: Option<rri_rehost::robot::Robot> = None;
+    let mut corpus = None;
+    let mut corpus_run: Option<rri_rehost::corpus::Corpus> = None;
+    if let Some(path) = &args.corpus {
+        let (Some(gsi), Some(_)) = (&args.gsi, args.device) else {
+            fail(2, "--corpus needs --device ADDR:PORT and --gsi DIR");
+        };
+        let inputs = rri_rehost::corpus::read(path).unwrap_or_else(|e| fail(2, &e));
+        let device = gsi_config::load(gsi, None)
+            .map(|l| l.device)
+            .unwrap_or_else(|e| fail(2, &format!("{}: {e}", gsi.display())));
+        corpus = Some((inputs, device));
+        m.fine_slices = true;
+        m.paced = false;
+    }
     let t = std::time::Instant::now();
     let mut announced = false;
     let stop = loop {
@@ -162,6 +184,16 @@ fn main() {
         let step = m.uc.get_data().shared.clocks.core_hz / per;
         let left = cycles_limit.saturating_sub(m.now());
         let stop = m.run(step.min(left).max(1));
+        if let (Some(c), Some(bridge)) = (&mut corpus_run, &mut m.bridge) {
+            c.step(bridge, m.time_ns);
+            if c.done() {
+                print!("{}", c.table(m.uc.get_data().shared.clocks.core_hz));
+                if let Some(e) = &c.first_error {
+                    println!("corpus: first error: {e}");
+                }
+                std::process::exit(if c.ok() { 0 } else { 1 });
+            }
+        }
         if let (Some(d), Some(bridge)) = (&mut driver, &mut m.bridge) {
             if let Err(e) = d.step(bridge, m.time_ns) {
                 fail(1, &e);
@@ -191,7 +223,16 @@ fn main() {
             println!("{}{line}", args.log_prefix);
             // The robot starts once the device's link is up (a robot
             // message before that is lost on the wire, as on a board).
+            if let Some(c) = &mut corpus_run {
+                c.log_line(&line);
+            }
             if line.contains("link up") {
+                if let Some((inputs, device)) = corpus.take() {
+                    corpus_run = Some(
+                        rri_rehost::corpus::Corpus::new(inputs, device, args.repeat)
+                            .unwrap_or_else(|e| fail(2, &e)),
+                    );
+                }
                 if let Some((n, device)) = robot.take() {
                     let d = rri_rehost::robot::Robot::new(device, n, m.time_ns)
                         .unwrap_or_else(|e| fail(2, &e));

@@ -179,7 +179,7 @@ impl Robot {
 
 /// The first property the controller sends (`robot_sends`), or the first
 /// the device sends.
-fn position(device: &Device, robot_sends: bool) -> Result<usize, String> {
+pub(crate) fn position(device: &Device, robot_sends: bool) -> Result<usize, String> {
     let wanted: Vec<&Property> = if robot_sends {
         device.received().collect()
     } else {

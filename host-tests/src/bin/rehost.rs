@@ -86,6 +86,14 @@ fn main() -> ExitCode {
         return fail("say which board: --board f767 or --board h743 (or --broken)");
     };
     let tcp = args.iter().any(|a| a == "--tcp");
+    let corpus = args
+        .iter()
+        .position(|a| a == "--corpus")
+        .map(|i| args.remove(i))
+        .is_some();
+    if corpus && (tcp || elf.is_some()) {
+        return fail("--corpus runs the bench image over UDP: no --tcp, no --elf");
+    }
     // The device the image is built for: its address, channel and GSI
     // folder (the manual's; with --tcp the manual's device over TCP).
     let setup = match host_tests::demo::Setup::new(tcp) {
@@ -93,6 +101,7 @@ fn main() -> ExitCode {
         Err(e) => return fail(&e),
     };
     let image = match (elf, &setup.build_gsi) {
+        _ if corpus => rehost::bench_image(&board),
         (Some(e), _) => Ok(e),
         (None, Some(gsi)) => rehost::tcp_image(&board, gsi),
         (None, None) => rehost::board_image(&board),
@@ -111,11 +120,41 @@ fn main() -> ExitCode {
         "--gsi".to_string(),
         setup.gsi.display().to_string(),
     ];
+    if corpus {
+        match rehost::corpus_file() {
+            Ok(path) => engine_args.extend(["--corpus".to_string(), path.display().to_string()]),
+            Err(e) => return fail(&e),
+        }
+    }
     engine_args.extend(args);
-    match rehost::run_engine(&engine, &board, &elf, &engine_args) {
+    let ran = rehost::run_engine(&engine, &board, &elf, &engine_args);
+    if corpus {
+        print_qemu_baseline();
+    }
+    match ran {
         Ok(0) => ExitCode::SUCCESS,
         Ok(code) => ExitCode::from(code as u8),
         Err(e) => fail(&e),
+    }
+}
+
+/// Beside the corpus on the model: the QEMU board's gated figures (its
+/// LAN9118 driver, `-icount`), from the baseline file CI gates on.
+fn print_qemu_baseline() {
+    let path = host_tests::workspace().join("host-tests/bench/qemu-baseline.json");
+    let base: Option<host_tests::qemu_bench::Gated> = std::fs::read_to_string(&path)
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok());
+    match base {
+        Some(b) => println!(
+            "bytes: the datagram as sent, its Id written with 10 digits (a few bytes more than the file).\nthe QEMU board beside it (mps2-an500, its LAN9118 driver; {}): compute median {}, compute max {}, full path median {}, hostile max {} instructions",
+            path.display(),
+            b.compute_median,
+            b.compute_max,
+            b.full_median,
+            b.hostile_max
+        ),
+        None => println!("(no QEMU baseline at {})", path.display()),
     }
 }
 
