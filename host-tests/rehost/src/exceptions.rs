@@ -41,6 +41,19 @@ pub struct Fault {
     pub mmfar: Option<u32>,
 }
 
+impl Fault {
+    /// An undefined instruction at `at` (UFSR UNDEFINSTR, B3.2.15).
+    pub fn undefined_instruction(at: u32) -> Fault {
+        Fault {
+            exc: USAGE_FAULT,
+            at,
+            why: "an undefined instruction".to_string(),
+            cfsr: UNDEFINSTR,
+            mmfar: None,
+        }
+    }
+}
+
 /// The exceptions the core is handling, innermost last, with their
 /// priorities.
 #[derive(Clone, Debug, Default)]

@@ -11,7 +11,7 @@ use crate::access::{bus_read, bus_write};
 use crate::bus::{Bus, ResetCause, Shared};
 use crate::chip::{Access, Chip};
 use crate::clocks::Clocks;
-use crate::exceptions::{self, Active, Fault, UNDEFINSTR, USAGE_FAULT};
+use crate::exceptions::{self, Active, Fault};
 use crate::image::Image;
 use crate::scs::Scs;
 pub use crate::stop::Stop;
@@ -274,15 +274,7 @@ impl Machine {
                 8 | 3 if pc >= 0xFFFF_FF00 => s.exception_return = Some(pc as u32 | 1),
                 // EXCP_UDEF: an undefined instruction, a UsageFault that
                 // escalates to HardFault (UsageFault is not enabled).
-                1 => {
-                    s.fault = Some(Fault {
-                        exc: USAGE_FAULT,
-                        at: pc as u32,
-                        why: "an undefined instruction".to_string(),
-                        cfsr: UNDEFINSTR,
-                        mmfar: None,
-                    })
-                }
+                1 => s.fault = Some(Fault::undefined_instruction(pc as u32)),
                 _ => s.refuse(
                     format!(
                         "a CPU exception unicorn raised (#{intno}) that this model does not take"
@@ -350,13 +342,7 @@ impl Machine {
                 // error (not its interrupt hook); silicon takes UsageFault
                 // with UNDEFINSTR (B1.5.14). Unicorn's M7 decodes what the
                 // M7 does (tests/cpu.rs), so this is the image's.
-                s.fault = Some(Fault {
-                    exc: USAGE_FAULT,
-                    at: pc as u32,
-                    why: "an undefined instruction".to_string(),
-                    cfsr: UNDEFINSTR,
-                    mmfar: None,
-                });
+                s.fault = Some(Fault::undefined_instruction(pc as u32));
             } else if let Err(err) = result {
                 // A store the MPU refused stops unicorn with an error; the
                 // fault is taken next.
