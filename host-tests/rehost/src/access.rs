@@ -3,7 +3,7 @@
 //! it, checked against the chip's bus matrix and the data cache.
 
 use crate::bus::{Bus, Dma, Refusal};
-use crate::machine::{State, PPB};
+use crate::state::{State, PPB};
 use unicorn_engine::{RegisterARM, Unicorn};
 
 fn remember(s: &mut State, pc: u64, addr: u64, size: u32, write: Option<u32>, value: u32) {

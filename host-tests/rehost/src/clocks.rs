@@ -5,6 +5,13 @@
 //! one that stops the run, as it is the one that would make silicon
 //! misbehave.
 
+/// Core cycles in `us` microseconds at the core clock in force, counted
+/// at no less than `floor_hz` (the slowest clock the core can run from, so
+/// that a wait begun before the clocks are known still ends); at least one.
+pub fn core_cycles(clocks: &Clocks, floor_hz: u64, us: u64) -> u64 {
+    (clocks.core_hz.max(floor_hz) * us / 1_000_000).max(1)
+}
+
 /// The figures the limits are checked against.
 #[derive(Clone, Debug, Default)]
 pub struct Clocks {

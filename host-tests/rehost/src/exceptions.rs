@@ -8,58 +8,16 @@
 //! branches to EXC_RETURN (B1.5.8; unicorn raises its exception #8 then).
 //! Fuzzware's `cortexm_nvic.c` was read for the shape of a software NVIC.
 
-use crate::machine::State;
+use crate::fault::{Fault, FORCED, MEM_MANAGE, MSTKERR, USAGE_FAULT};
+use crate::state::State;
 use unicorn_engine::{RegisterARM, Unicorn};
 
 /// Exception numbers (B1.5.2).
 pub const HARD_FAULT: u32 = 3;
-pub const MEM_MANAGE: u32 = 4;
-pub const USAGE_FAULT: u32 = 6;
 pub const PENDSV: u32 = 14;
 pub const SYSTICK: u32 = 15;
 /// The first external interrupt.
 pub const IRQ0: u32 = 16;
-
-/// CFSR bits (B3.2.15): MMFSR DACCVIOL, MSTKERR, MMARVALID; UFSR
-/// UNDEFINSTR. HFSR FORCED (B3.2.16).
-pub const DACCVIOL: u32 = 1 << 1;
-pub const MSTKERR: u32 = 1 << 4;
-pub const MMARVALID: u32 = 1 << 7;
-pub const UNDEFINSTR: u32 = 1 << 16;
-pub const FORCED: u32 = 1 << 30;
-
-/// A synchronous fault the core takes before its next instruction: the
-/// configurable fault it is (MemManage, UsageFault), the address of the
-/// instruction that faulted (stacked as the return address), why, and what
-/// it sets in CFSR and MMFAR.
-#[derive(Clone, Debug)]
-pub struct Fault {
-    pub exc: u32,
-    pub at: u32,
-    pub why: String,
-    pub cfsr: u32,
-    pub mmfar: Option<u32>,
-}
-
-impl Fault {
-    /// An undefined instruction at `at` (UFSR UNDEFINSTR, B3.2.15).
-    pub fn undefined_instruction(at: u32) -> Fault {
-        Fault {
-            exc: USAGE_FAULT,
-            at,
-            why: "an undefined instruction".to_string(),
-            cfsr: UNDEFINSTR,
-            mmfar: None,
-        }
-    }
-}
-
-/// The exceptions the core is handling, innermost last, with their
-/// priorities.
-#[derive(Clone, Debug, Default)]
-pub struct Active {
-    pub stack: Vec<(u32, i32)>,
-}
 
 fn r(uc: &Unicorn<State>, reg: RegisterARM) -> u32 {
     uc.reg_read(reg).unwrap_or(0) as u32

@@ -3,7 +3,7 @@
 //! count of a translated block.
 
 use crate::image::Image;
-use crate::machine::State;
+use crate::state::State;
 use unicorn_engine::Unicorn;
 
 /// Hooks on the instructions the model must see (ARMv7-M A7.7): WFI and

@@ -11,9 +11,12 @@ use crate::access::{bus_read, bus_write};
 use crate::bus::{Bus, ResetCause, Shared};
 use crate::chip::{Access, Chip};
 use crate::clocks::Clocks;
-use crate::exceptions::{self, Active, Fault};
+use crate::exceptions;
+use crate::fault::Fault;
 use crate::image::Image;
 use crate::scs::Scs;
+use crate::state::Active;
+pub use crate::state::State;
 pub use crate::stop::Stop;
 use std::rc::Rc;
 use unicorn_engine::{Arch, ArmCpuModel, HookType, MemType, Mode, Prot, RegisterARM, Unicorn};
@@ -22,64 +25,6 @@ use unicorn_engine::{Arch, ArmCpuModel, HookType, MemType, Mode, Prot, RegisterA
 /// and on the H7 the D3 domain) and the core's private peripheral bus.
 const PERIPHERALS: (u64, u64) = (0x4000_0000, 0x2000_0000);
 pub(crate) const PPB: (u64, u64) = (0xE000_0000, 0x10_0000);
-
-/// Everything the hooks reach.
-pub struct State {
-    pub chip: Chip,
-    pub image: Rc<Image>,
-    pub bus: Bus,
-    pub scs: Scs,
-    /// What the models share: clocks, raised lines, wiring, the wire.
-    pub shared: Shared,
-    /// Retired instructions (= core cycles).
-    pub now: u64,
-    /// The run ends when `now` reaches this.
-    pub deadline: u64,
-    pub stop: Option<Stop>,
-    /// The exceptions being handled.
-    pub active: Active,
-    pub exceptions_taken: u64,
-    /// The handler branched to this EXC_RETURN value.
-    pub exception_return: Option<u32>,
-    /// A fault to take before the next instruction.
-    pub fault: Option<Fault>,
-    /// The ranges the MPU forbids writes to, and the pages of RAM
-    /// protected in unicorn so that every store into them is checked
-    /// ([`crate::mpu`]); the MPU registers they were computed from.
-    pub mpu_denied: Vec<crate::mpu::Denied>,
-    pub mpu_pages: Vec<u64>,
-    pub mpu_seen: (u32, [crate::scs::MpuRegion; 16]),
-    /// The core reached WFI or WFE: (its address, its size, WFE?).
-    pub sleeping: Option<(u32, u32, bool)>,
-    /// The event register (SEV, exception return) that WFE consumes.
-    pub event: bool,
-    /// Cycles the core spent asleep.
-    pub slept: u64,
-    /// The last peripheral accesses: (PC, address, size, written value or
-    /// None for a read, value read).
-    pub recent: std::collections::VecDeque<(u32, u32, u32, Option<u32>, u32)>,
-    /// Times the emulator was started (slices run).
-    pub slices: u64,
-    /// The core reached the address of [`Machine::stop_at`].
-    pub reached: bool,
-    /// Instructions in each translated block, by its address.
-    pub block_sizes: std::collections::HashMap<u64, u64>,
-}
-
-impl State {
-    /// Records the first stop; later ones are consequences of it.
-    pub(crate) fn refuse(&mut self, rule: String, addr: Option<u64>, pc: u64) {
-        if self.stop.is_none() {
-            self.stop = Some(Stop {
-                rule,
-                addr,
-                pc,
-                function: self.image.describe(pc),
-                cycles: self.now,
-            });
-        }
-    }
-}
 
 /// The emulated chip with its image.
 pub struct Machine {
@@ -220,8 +165,8 @@ impl Machine {
             0,
             |uc, kind, addr, size, _value| {
                 let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
-                if kind == MemType::WRITE_PROT && crate::mpu::guarded_page(uc, addr) {
-                    return crate::mpu::on_write(uc, addr, size, _value);
+                if kind == MemType::WRITE_PROT && crate::mpu_enforce::guarded_page(uc, addr) {
+                    return crate::mpu_enforce::on_write(uc, addr, size, _value);
                 }
                 let what = match kind {
                     MemType::WRITE_PROT => "a write into flash (read-only to the core)".to_string(),
@@ -463,7 +408,7 @@ impl Machine {
         if let Some(fault) = uc.get_data_mut().fault.take() {
             exceptions::take_fault(uc, fault)?;
         }
-        crate::mpu::sync(uc)?;
+        crate::mpu_enforce::sync(uc)?;
         self.take_reset()?;
         let uc = &mut self.uc;
         if let Some((pc, size, wfe)) = uc.get_data_mut().sleeping.take() {

@@ -9,20 +9,13 @@
 //! encodings, HFNMIENA) and B1.5.14-15 (derived faults on stacking); the
 //! STM32F7/H7 programming manual PM0253 §4.6 (RASR fields).
 //!
-//! How: unicorn keeps RAM on its fast path, so the pages (1 KiB on an
-//! M-profile core) that hold a write-denied range are protected in unicorn
-//! and every store into them reaches [`on_write`]; the stores the MPU
-//! allows are done there, the others refused, which stops the core on the
-//! store with nothing after it executed (tests/cpu.rs proves both).
+//! This file is the MPU as programmed (which ranges it denies); how the
+//! machine makes unicorn check every store into them is `mpu_enforce.rs`.
 //! Not modelled: unprivileged code (the firmware runs privileged), read
 //! and execute permissions (AP = 000 reads, XN), the background map for
 //! addresses no region covers (PRIVDEFENA is what the images set).
 
-use crate::chip::Access;
-use crate::exceptions::{Fault, DACCVIOL, MEM_MANAGE, MMARVALID};
-use crate::machine::State;
 use crate::scs::Scs;
-use unicorn_engine::{Prot, RegisterARM, Unicorn};
 
 /// A range the MPU forbids privileged writes to, and the region that
 /// decides it.
@@ -111,82 +104,6 @@ pub fn pages(denied: &[Denied], page: u64) -> Vec<u64> {
         .collect();
     out.dedup();
     out
-}
-
-/// unicorn's page size (1 KiB on an M-profile core).
-fn page_size(uc: &Unicorn<State>) -> u64 {
-    uc.ctl_get_page_size().map(u64::from).unwrap_or(1024)
-}
-
-/// Brings unicorn's page protection in line with the MPU after its
-/// registers changed: the RAM pages holding a write-denied range
-/// protected, the others given back their writes.
-pub fn sync(uc: &mut Unicorn<State>) -> Result<(), String> {
-    let s = uc.get_data();
-    let seen = (s.scs.mpu_ctrl, s.scs.mpu);
-    if seen == s.mpu_seen {
-        return Ok(());
-    }
-    let denied = write_denied(&s.scs);
-    let page = page_size(uc);
-    let chip = s.chip;
-    let wanted: Vec<u64> = pages(&denied, page)
-        .into_iter()
-        .filter(|&p| chip.memory_at(p).is_some_and(|m| m.access == Access::Ram))
-        .collect();
-    let old = s.mpu_pages.clone();
-    for &p in old.iter().filter(|p| !wanted.contains(p)) {
-        uc.mem_protect(p, page, Prot::ALL)
-            .map_err(|e| format!("unicorn: unprotecting {p:#010x}: {e:?}"))?;
-    }
-    for &p in wanted.iter().filter(|p| !old.contains(p)) {
-        uc.mem_protect(p, page, Prot::READ | Prot::EXEC)
-            .map_err(|e| format!("unicorn: protecting {p:#010x}: {e:?}"))?;
-    }
-    let s = uc.get_data_mut();
-    s.mpu_seen = seen;
-    s.mpu_denied = denied;
-    s.mpu_pages = wanted;
-    Ok(())
-}
-
-/// Whether `addr` is in a page [`sync`] protected (else a write-protect
-/// hit is a write into flash).
-pub fn guarded_page(uc: &Unicorn<State>, addr: u64) -> bool {
-    let page = page_size(uc);
-    uc.get_data()
-        .mpu_pages
-        .iter()
-        .any(|&p| (p..p + page).contains(&addr))
-}
-
-/// A store into a protected page: done here when the MPU allows it (or
-/// does not apply: HardFault, NMI and FAULTMASK with HFNMIENA clear,
-/// B3.5.1); else the MemManage fault is noted and the store refused, which
-/// stops the core on it. Returns whether the store was done.
-pub fn on_write(uc: &mut Unicorn<State>, addr: u64, size: usize, value: i64) -> bool {
-    let exempt =
-        uc.get_data().scs.mpu_ctrl & 2 == 0 && crate::exceptions::execution_priority(uc) < 0;
-    let denied = hit(&uc.get_data().mpu_denied, addr, size as u64);
-    match denied {
-        Some(d) if !exempt => {
-            let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
-            let sp = uc.reg_read(RegisterARM::SP).unwrap_or(0);
-            uc.get_data_mut().fault = Some(Fault {
-                exc: MEM_MANAGE,
-                at: pc as u32,
-                why: describe(&d, addr, size, sp),
-                cfsr: DACCVIOL | MMARVALID,
-                mmfar: Some(addr as u32),
-            });
-            let _ = uc.emu_stop();
-            false
-        }
-        _ => {
-            let bytes = value.to_le_bytes();
-            uc.mem_write(addr, &bytes[..size.min(8)]).is_ok()
-        }
-    }
 }
 
 /// How a refused write reads in a report: the region and what it is.

@@ -8,9 +8,9 @@
 
 use crate::bus::{Bus, ResetCause};
 use crate::clocks::Clocks;
-use crate::exceptions::Active;
-use crate::machine::State;
 use crate::scs::Scs;
+use crate::state::Active;
+use crate::state::State;
 use crate::wiring::Wiring;
 use unicorn_engine::{RegisterARM, Unicorn};
 
@@ -80,6 +80,6 @@ pub fn system_reset(
     s.sleeping = None;
     s.event = false;
     // The MPU is off: every page it had protected writable again.
-    crate::mpu::sync(uc)?;
+    crate::mpu_enforce::sync(uc)?;
     reset_core(uc)
 }

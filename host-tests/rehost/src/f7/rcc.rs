@@ -226,7 +226,7 @@ impl Default for Rcc {
 
 /// Cycles of the core clock in `us` microseconds (at least one).
 fn cycles(cx: &Cx, us: u64) -> u64 {
-    (cx.clocks.core_hz.max(HSI_HZ) * us / 1_000_000).max(1)
+    crate::clocks::core_cycles(cx.clocks, HSI_HZ, us)
 }
 
 impl Peripheral for Rcc {

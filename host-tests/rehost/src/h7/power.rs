@@ -13,7 +13,6 @@
 //! FLASH's wait states (LATENCY) and programming delay (WRHIGHFREQ) follow
 //! RM0433 Table 17 for the AXI clock in the scale in force.
 
-use super::rcc::cycles;
 use crate::bus::{reg, Cx, Peripheral, Refusal, Reg, Regs};
 use crate::clocks::{mhz, Clocks, Limits};
 
@@ -208,7 +207,10 @@ impl Peripheral for Pwr {
             D3CR if old != new => {
                 // VOSRDY falls until the regulator reaches the new scale.
                 self.regs.set_bits(D3CR, 1 << 13, false);
-                self.vos_ready_at = Some(cx.now + cycles(cx, VOS_US));
+                // Counted at no less than the CSI's 4 MHz (RM0433 §8.5.3),
+                // as every wait of the H7's models.
+                self.vos_ready_at =
+                    Some(cx.now + crate::clocks::core_cycles(cx.clocks, 4_000_000, VOS_US));
             }
             // BRRDY follows BREN (the backup regulator's start-up is not
             // modelled).

@@ -376,9 +376,10 @@ fn apb_div(v: u32) -> u64 {
     1 << v.saturating_sub(3)
 }
 
-/// Cycles of the core clock in `us` microseconds (at least one).
+/// Cycles of the core clock in `us` microseconds (at least one; counted
+/// at the CSI's 4 MHz at the least).
 pub fn cycles(cx: &Cx, us: u64) -> u64 {
-    (cx.clocks.core_hz.max(CSI_HZ) * us / 1_000_000).max(1)
+    crate::clocks::core_cycles(cx.clocks, CSI_HZ, us)
 }
 
 impl Peripheral for Rcc {

@@ -1,0 +1,82 @@
+//! What every hook of the machine reaches: the chip's models, the core's
+//! system control space and exception state, virtual time, and why the run
+//! stopped. Plain data with no behaviour of its own beyond recording a
+//! stop, so that the machine and the hooks it installs can all use it
+//! without importing each other.
+
+use crate::bus::{Bus, Shared};
+use crate::chip::Chip;
+use crate::fault::Fault;
+use crate::image::Image;
+use crate::scs::Scs;
+use crate::stop::Stop;
+use std::rc::Rc;
+
+/// The private peripheral bus (the core's SCS), which the machine maps to
+/// the models.
+pub(crate) const PPB: (u64, u64) = (0xE000_0000, 0x10_0000);
+
+/// The exceptions the core is handling, innermost last, with their
+/// priorities.
+#[derive(Clone, Debug, Default)]
+pub struct Active {
+    pub stack: Vec<(u32, i32)>,
+}
+
+/// Everything the hooks reach.
+pub struct State {
+    pub chip: Chip,
+    pub image: Rc<Image>,
+    pub bus: Bus,
+    pub scs: Scs,
+    /// What the models share: clocks, raised lines, wiring, the wire.
+    pub shared: Shared,
+    /// Retired instructions (= core cycles).
+    pub now: u64,
+    /// The run ends when `now` reaches this.
+    pub deadline: u64,
+    pub stop: Option<Stop>,
+    /// The exceptions being handled.
+    pub active: Active,
+    pub exceptions_taken: u64,
+    /// The handler branched to this EXC_RETURN value.
+    pub exception_return: Option<u32>,
+    /// A fault to take before the next instruction.
+    pub fault: Option<Fault>,
+    /// The ranges the MPU forbids writes to, and the pages of RAM
+    /// protected in unicorn so that every store into them is checked
+    /// ([`crate::mpu`]); the MPU registers they were computed from.
+    pub mpu_denied: Vec<crate::mpu::Denied>,
+    pub mpu_pages: Vec<u64>,
+    pub mpu_seen: (u32, [crate::scs::MpuRegion; 16]),
+    /// The core reached WFI or WFE: (its address, its size, WFE?).
+    pub sleeping: Option<(u32, u32, bool)>,
+    /// The event register (SEV, exception return) that WFE consumes.
+    pub event: bool,
+    /// Cycles the core spent asleep.
+    pub slept: u64,
+    /// The last peripheral accesses: (PC, address, size, written value or
+    /// None for a read, value read).
+    pub recent: std::collections::VecDeque<(u32, u32, u32, Option<u32>, u32)>,
+    /// Times the emulator was started (slices run).
+    pub slices: u64,
+    /// The core reached the address of [`Machine::stop_at`].
+    pub reached: bool,
+    /// Instructions in each translated block, by its address.
+    pub block_sizes: std::collections::HashMap<u64, u64>,
+}
+
+impl State {
+    /// Records the first stop; later ones are consequences of it.
+    pub(crate) fn refuse(&mut self, rule: String, addr: Option<u64>, pc: u64) {
+        if self.stop.is_none() {
+            self.stop = Some(Stop {
+                rule,
+                addr,
+                pc,
+                function: self.image.describe(pc),
+                cycles: self.now,
+            });
+        }
+    }
+}
