@@ -209,9 +209,8 @@ pub fn board_image(board: &str) -> Result<PathBuf, String> {
     crate::boards::build(b)
 }
 
-/// The board's image built from the TCP device's GSI folder (`--tcp`), in
-/// its own target directory (`target/rehost-tcp`), kept at
-/// `target/rehost-tcp/<board>.elf`.
+/// The board's image built from the TCP device's GSI folder (`--tcp`),
+/// kept at `target/rehost-tcp/nucleo-<board>.elf`.
 pub fn tcp_image(board: &str, gsi: &Path) -> Result<PathBuf, String> {
     build_variant(
         board,
@@ -222,9 +221,8 @@ pub fn tcp_image(board: &str, gsi: &Path) -> Result<PathBuf, String> {
     )
 }
 
-/// Builds a broken variant in its own target directory
-/// (`target/rehost-broken`, so no board's image is replaced) and returns
-/// its ELF.
+/// Builds a broken variant and keeps it at
+/// `target/rehost-broken/<feature>.elf` (no board's image is replaced).
 pub fn broken_image(variant: &Broken) -> Result<PathBuf, String> {
     let name = variant.feature.trim_start_matches("hal-board/");
     build_variant(
@@ -237,7 +235,10 @@ pub fn broken_image(variant: &Broken) -> Result<PathBuf, String> {
 }
 
 /// Builds the firmware for `board` with `extra` features (and the GSI
-/// folder `gsi`) in `target/<dir>`, and keeps it at `target/<dir>/<name>.elf`.
+/// folder `gsi`) and keeps it at `target/<dir>/<name>.elf`. In cargo's
+/// default target directory, as `cargo hil` builds: embassy-stm32 for
+/// each chip is compiled once there for every variant, the TCP image and
+/// the bench image alike.
 fn build_variant(
     board: &str,
     extra: &[&str],
@@ -245,44 +246,12 @@ fn build_variant(
     dir: &str,
     name: &str,
 ) -> Result<PathBuf, String> {
-    let mut features = match board {
-        "f767" => "board,hal-board/nucleo-f767zi".to_string(),
-        "h743" => "board,hal-board/nucleo-h743zi".to_string(),
+    let features = match board {
+        "f767" => "board,hal-board/nucleo-f767zi",
+        "h743" => "board,hal-board/nucleo-h743zi",
         other => return Err(format!("no board {other:?} (f767 or h743)")),
     };
-    for f in extra {
-        features.push(',');
-        features.push_str(f);
-    }
-    crate::mcu_target::ensure()?;
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let target = crate::qemu::target_dir().join(dir);
-    let mut cmd = Command::new(&cargo);
-    cmd.current_dir(crate::workspace())
-        .env_remove("RRI_GSI_DIR")
-        .env_remove("RRI_DEVICE");
-    if let Some(g) = gsi {
-        cmd.env("RRI_GSI_DIR", g);
-    }
-    let status = cmd
-        .args([
-            "build",
-            "-p",
-            "rri-sensor",
-            "--bin",
-            "rri-sensor",
-            "--profile",
-            crate::qemu::PROFILE,
-        ])
-        .args(["--target", crate::qemu::TARGET, "--features", &features])
-        .arg("--target-dir")
-        .arg(&target)
-        .status()
-        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
-    if !status.success() {
-        return Err(format!("the image ({features}) did not build ({status})"));
-    }
-    crate::qemu::keep_image_from(&target, dir, name)
+    crate::qemu::build_board(features, extra, gsi, &[], dir, name)
 }
 
 /// The bench image for `board` (the one `cargo hil -- --board
@@ -293,6 +262,7 @@ pub fn bench_image(board: &str) -> Result<PathBuf, String> {
         "h743" => "board,hal-board/nucleo-h743zi",
         other => return Err(format!("no board {other:?} (f767 or h743)")),
     };
+    // As `cargo hil` builds it, so that the two share one build.
     crate::qemu::build_board(
         feature,
         &["bench"],

@@ -316,6 +316,31 @@ mod tests {
         assert!(Record::parse("[1.3 INFO] counters: received 1").is_none());
     }
 
+    /// The verdict can say no: a missed reply, an answered refusal, a
+    /// missing record each fail it.
+    #[test]
+    fn the_verdict_fails_on_a_missed_reply_an_answered_refusal_or_no_record() {
+        let gsi = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../firmware/gsi/GSI");
+        let device = gsi_config::load(&gsi, None).unwrap().device;
+        let input = |name: &str, accepted| Input {
+            name: name.into(),
+            accepted,
+            text: String::new(),
+        };
+        let mut c = Corpus::new(vec![input("a", true), input("b", false)], device, 2).unwrap();
+        c.records = vec![vec![Record::default()], vec![Record::default()]];
+        c.answered = vec![2, 0];
+        assert!(c.ok());
+        c.answered[0] = 1;
+        assert!(!c.ok(), "a reply missing");
+        c.answered[0] = 2;
+        c.note(1, "answered, but the decoder must refuse it".into());
+        assert!(!c.ok(), "a refused message answered");
+        c.wrong[1] = 0;
+        c.records[1].clear();
+        assert!(!c.ok(), "a message without its record");
+    }
+
     #[test]
     fn the_corpus_file_reads_back_with_newlines_inside_a_text() {
         let dir = std::env::temp_dir().join(format!("rehost-corpus-{}", std::process::id()));
