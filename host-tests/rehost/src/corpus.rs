@@ -213,26 +213,21 @@ impl Corpus {
             self.waiting = None;
             self.record_due = (!self.got_record).then_some(now_ns + CYCLE_NS);
         }
-        if let Some(due) = self.record_due {
-            if self.got_record {
-                self.record_due = None;
-            } else if now_ns < due {
-                return;
+        if let Some(due) = self.record_due.take() {
+            if !self.got_record {
+                if now_ns < due {
+                    self.record_due = Some(due);
+                    return;
+                }
+                let i = self.current;
+                self.note(
+                    i,
+                    format!(
+                        "{}: no bench record from the device within a cycle",
+                        self.inputs[i].name
+                    ),
+                );
             }
-        }
-        if let Some(due) = self.record_due {
-            if now_ns < due {
-                return;
-            }
-            let i = self.current;
-            self.note(
-                i,
-                format!(
-                    "{}: no bench record from the device within a cycle",
-                    self.inputs[i].name
-                ),
-            );
-            self.record_due = None;
         }
         if self.sent_of_current >= self.repeat {
             self.current += 1;
