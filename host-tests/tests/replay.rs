@@ -140,24 +140,97 @@ fn the_simulators_own_pcap_and_pcapng_replay_with_no_difference() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The manual's robot message with Id `id` and Ts `ts`.
+fn with_id(id: u32, ts: &str) -> String {
+    let good =
+        std::fs::read_to_string(host_tests::shared_rri().join("examples/messages/RobData.xml"))
+            .unwrap();
+    let i = good.find("Id=\"").unwrap() + 4;
+    let j = i + good[i..].find('"').unwrap();
+    let m = format!("{}{id}{}", &good[..i], &good[j..]);
+    let t = m.find("Ts=\"").unwrap() + 4;
+    let u = t + m[t..].find('"').unwrap();
+    format!("{}{ts}{}", &m[..t], &m[u..])
+}
+
+/// A recorded sensor's reply to Id `id`.
+fn reply(id: u32) -> String {
+    format!("<SensData Id=\"{id}\" Ts=\"1.0\"><EStr>ok</EStr><AppData X1=\"0\" X2=\"0\" X3=\"0\" X4=\"0\" X5=\"0\" X6=\"0\"/></SensData>")
+}
+
+/// Issue 42 #1 and #5: two 150-cycle runs of the robot program in one
+/// capture (Ids 1 to 150 twice), with garbage datagrams and an Id gap.
+/// Each message is paired with its own recorded reply (not the first run's:
+/// recorded latencies were 0 and "150 recorded replies" were counted of
+/// 300), and garbage is malformed, not lost.
+#[test]
+fn two_runs_in_one_capture_with_garbage_and_a_gap_pair_each_message_with_its_own_reply() {
+    let robot = "127.0.0.1:40000".parse().unwrap();
+    let device = "127.0.0.1:3002".parse().unwrap();
+    let mut packets = Vec::new();
+    let mut at = 0u64;
+    for run in 0..2 {
+        for id in 1..=150u32 {
+            if run == 1 && (70..73).contains(&id) {
+                // Never sent: a gap of 3 Ids.
+                continue;
+            }
+            at += 4_000;
+            packets.push(Packet {
+                at_us: at,
+                from: robot,
+                to: device,
+                payload: with_id(id, "1.000").into_bytes(),
+            });
+            packets.push(Packet {
+                at_us: at + 250 + u64::from(id),
+                from: device,
+                to: robot,
+                payload: reply(id).into_bytes(),
+            });
+            if id % 50 == 0 {
+                at += 1_000;
+                packets.push(Packet {
+                    at_us: at,
+                    from: robot,
+                    to: device,
+                    payload: b"\x00\x01 not a message".to_vec(),
+                });
+            }
+        }
+    }
+    let file = std::env::temp_dir().join(format!("rri-two-runs-{}.pcap", std::process::id()));
+    write_pcap(&file, &packets, 1_700_000_000_000_000, false).unwrap();
+    let s = replay(
+        file.clone(),
+        Rules {
+            ignore_values: true,
+            ..Rules::default()
+        },
+        false,
+    );
+    let _ = std::fs::remove_file(&file);
+    let r = s.replay.as_ref().unwrap();
+    assert_eq!(s.failure(), None, "{s:?}");
+    assert_eq!((r.messages, r.same, r.malformed), (297, 297, 6), "{r:?}");
+    let c = &r.capture;
+    assert_eq!((c.replies, c.paired, c.to_nothing), (297, 297, 0));
+    assert_eq!((c.ids.gaps, c.ids.skipped, c.ids.restarts.len()), (1, 3, 1));
+    assert_eq!((c.malformed, c.robot_messages), (6, 303));
+    // Every recorded latency is its own: 250 µs + the Id.
+    for row in &r.rows {
+        let id = u64::from(row.id.unwrap());
+        assert_eq!(row.recorded_latency_us, Some(250 + id), "{row:?}");
+    }
+    // Malformed datagrams are neither sent robot messages nor lost.
+    assert_eq!((s.sent, s.lost), (297, 0), "{s:?}");
+    assert_eq!((s.as_recorded.garbage, s.as_recorded.dropped), (6, 3));
+}
+
 #[test]
 fn a_message_answered_in_the_capture_and_refused_now_is_the_headline_with_the_decoders_verdict() {
     let robot = "127.0.0.1:40000".parse().unwrap();
     let device = "127.0.0.1:3002".parse().unwrap();
-    let good =
-        std::fs::read_to_string(host_tests::shared_rri().join("examples/messages/RobData.xml"))
-            .unwrap();
-    let with_id = |id: u32, ts: &str| {
-        let i = good.find("Id=\"").unwrap() + 4;
-        let j = i + good[i..].find('"').unwrap();
-        let m = format!("{}{id}{}", &good[..i], &good[j..]);
-        let t = m.find("Ts=\"").unwrap() + 4;
-        let u = t + m[t..].find('"').unwrap();
-        format!("{}{ts}{}", &m[..t], &m[u..])
-    };
-    let reply = |id: u32| {
-        format!("<SensData Id=\"{id}\" Ts=\"1.0\"><EStr>ok</EStr><AppData X1=\"0\" X2=\"0\" X3=\"0\" X4=\"0\" X5=\"0\" X6=\"0\"/></SensData>")
-    };
     let mut packets = Vec::new();
     for (k, (id, ts)) in [(1, "1.000"), (2, "not-a-time"), (3, "1.008")]
         .into_iter()

@@ -265,8 +265,10 @@ pub struct Comparison {
 /// `after` the run.
 pub fn compare(s: &Summary, before: &DeviceCounts, after: &DeviceCounts) -> Comparison {
     let d = after.since(before);
-    let i = &s.injected;
-    let sent = s.sent + i.duplicated;
+    // A replay sends the capture's own malformed datagrams and Id gaps:
+    // the device counts them as it counts injected ones.
+    let sent = s.sent + s.injected.duplicated;
+    let i = &s.injected.plus(&s.as_recorded);
     let rejected =
         d.dropped_decode + d.dropped_foreign + d.dropped_invalid_source + d.dropped_throttled;
     let robot_in = d.received.saturating_sub(rejected);
@@ -283,12 +285,12 @@ pub fn compare(s: &Summary, before: &DeviceCounts, after: &DeviceCounts) -> Comp
             d.answered,
         ),
         row(
-            "garbage datagrams sent / rejected by the decoder",
+            "malformed datagrams sent (injected or recorded) / rejected by the decoder",
             i.garbage + i.oversize,
             d.dropped_decode,
         ),
         row(
-            "Ids skipped (drop fault) / counted lost (S3)",
+            "Ids skipped (drop fault or in the capture) / counted lost (S3)",
             i.dropped,
             d.lost,
         ),
@@ -484,5 +486,27 @@ mod tests {
         assert!(compare(&s, &counts(0, 0, 0, 0), &counts(10, 10, 0, 0))
             .disagreements
             .is_empty());
+    }
+
+    /// Issue 42 #7: a replay of a capture holding 33 garbage datagrams and
+    /// 18 skipped Ids is not "the device rejected 33, the simulator sent 0
+    /// it should reject" — the simulator sent them, as recorded.
+    #[test]
+    fn a_replay_expects_the_captures_own_garbage_and_id_gaps() {
+        let mut s = Summary {
+            sent: 1_482,
+            answered: 1_482,
+            ..Summary::default()
+        };
+        s.as_recorded.garbage = 33;
+        s.as_recorded.dropped = 18;
+        let c = compare(&s, &counts(0, 0, 0, 0), &counts(1_482 + 33, 1_482, 33, 18));
+        assert!(c.disagreements.is_empty(), "{:?}", c.disagreements);
+        assert!(!c.in_firmware);
+        assert_eq!((c.rows[2].simulator, c.rows[2].device), (33, 33));
+        // Without them, the same counts are blamed on the firmware.
+        s.as_recorded = crate::report::Injected::default();
+        let c = compare(&s, &counts(0, 0, 0, 0), &counts(1_482 + 33, 1_482, 33, 18));
+        assert!(c.in_firmware, "{:?}", c.disagreements);
     }
 }

@@ -260,6 +260,19 @@ fn replayed(
     Ok((s, cycles))
 }
 
+/// `--replay FILE --describe`: the capture's conversation described (what
+/// the controller sent, what came back, when), with no sensor.
+pub fn describe(
+    opts: &RobotOptions,
+    device: &Device,
+) -> Result<replay::describe::Description, String> {
+    let r = opts
+        .replay
+        .as_ref()
+        .ok_or("--describe describes the capture given with --replay FILE")?;
+    replay::describe_file(r, device, reply_property(opts, device)?)
+}
+
 /// The reply property `--reply` names (else the device's first).
 fn reply_property<'d>(opts: &RobotOptions, device: &'d Device) -> Result<&'d Property, String> {
     match &opts.reply {

@@ -50,6 +50,11 @@ pub struct Summary {
     pub duplicate_replies: u64,
     /// What `--fault` injected, to check a device's counters against.
     pub injected: Injected,
+    /// `--replay`: what the capture's own robot messages hold that a
+    /// device counts as it counts injected faults (Ids skipped by the
+    /// recorded controller, datagrams without a readable Id), so
+    /// `--device-status` expects them.
+    pub as_recorded: Injected,
     /// `false` with `--no-pacing` (lock-step: each message after the last
     /// reply, as fast as the sensor answers).
     pub paced: bool,
@@ -96,6 +101,19 @@ pub struct Injected {
 impl Injected {
     fn is_empty(&self) -> bool {
         *self == Injected::default()
+    }
+
+    /// Both counts together (what was injected and what was recorded).
+    pub fn plus(&self, o: &Injected) -> Injected {
+        Injected {
+            dropped: self.dropped + o.dropped,
+            duplicated: self.duplicated + o.duplicated,
+            reordered: self.reordered + o.reordered,
+            garbage: self.garbage + o.garbage,
+            oversize: self.oversize + o.oversize,
+            pauses: self.pauses + o.pauses,
+            second_port: self.second_port + o.second_port,
+        }
     }
 }
 

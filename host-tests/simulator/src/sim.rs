@@ -56,8 +56,9 @@ pub(crate) struct Sim<'a> {
     pub(crate) show: Option<Show>,
     /// When the last live line of shown values was printed.
     pub(crate) shown_at: Option<Instant>,
-    /// `--replay`: the first reply to each Id, kept to compare.
-    pub(crate) replies: Option<HashMap<u32, Vec<u8>>>,
+    /// `--replay`: the first reply to each message, by its index in
+    /// `cycles`, kept to compare.
+    pub(crate) replies: Option<HashMap<usize, Vec<u8>>>,
 }
 
 impl<'a> Sim<'a> {

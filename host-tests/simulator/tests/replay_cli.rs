@@ -75,18 +75,23 @@ fn files_that_cannot_be_replayed_exit_2_with_one_line_saying_why() {
 
     let text = write(&dir, "notes.pcap", b"these are not packets\n");
     let truncated = write(&dir, "truncated.pcap", &udp[..udp.len() / 2 + 7]);
-    // A robot message cut by the snapshot length: its original length
-    // said to be 100 bytes longer than what the file holds.
-    let mut cut = udp.clone();
-    let recs = records(&cut);
+    // A robot message cut by the snapshot length: 100 bytes of it not in
+    // the file (its IPv4 header says more than was captured).
+    let recs = records(&udp);
     let (first_rri, _) = recs
         .iter()
         .enumerate()
         .find(|(_, r)| carries(&udp, **r, 3002))
         .expect("an RRI packet");
-    let (at, caplen) = recs[first_rri];
-    cut[at + 12..at + 16].copy_from_slice(&(caplen as u32 + 100).to_le_bytes());
-    let cut = write(&dir, "cut.pcap", &cut);
+    let cut = write(
+        &dir,
+        "cut.pcap",
+        &snap(&udp, |k| (k == first_rri).then_some(100)),
+    );
+    // Issue 42 #2: a capture made with `-s 120`: every packet cut, no
+    // whole datagram at all (was: "the file holds no UDP or TCP over IPv4
+    // at all", false, and nothing named the cut).
+    let s120 = write(&dir, "s120.pcap", &snap_at(&udp, 120));
     // Everything but the RRI conversation: nothing to replay.
     let mut other = udp[..24].to_vec();
     for r in recs.iter().filter(|r| !carries(&udp, **r, 3002)) {
@@ -123,6 +128,10 @@ fn files_that_cannot_be_replayed_exit_2_with_one_line_saying_why() {
             ),
         ),
         (
+            vec!["--replay", &s120],
+            "no conversation on port 3002 (the GSI folder's channel port) whole: its 200 packets were cut by the capture's snapshot length (the first: packet",
+        ),
+        (
             vec!["--replay", &other],
             "no conversation on port 3002 (the GSI folder's channel port)",
         ),
@@ -154,6 +163,46 @@ fn files_that_cannot_be_replayed_exit_2_with_one_line_saying_why() {
         let ours = said == 1 || err.contains("what the file holds");
         assert!(ours || err.contains("Usage:"), "{args:?}: {err}");
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `pcap` with `less(k)` bytes taken off the end of record `k`'s data
+/// (its original length kept): what a snapshot length does.
+fn snap(pcap: &[u8], less: impl Fn(usize) -> Option<usize>) -> Vec<u8> {
+    let mut out = pcap[..24].to_vec();
+    for (k, (at, caplen)) in records(pcap).into_iter().enumerate() {
+        let keep = caplen - less(k).unwrap_or(0).min(caplen);
+        let mut header = pcap[at..at + 16].to_vec();
+        header[8..12].copy_from_slice(&(keep as u32).to_le_bytes());
+        out.extend_from_slice(&header);
+        out.extend_from_slice(&pcap[at + 16..at + 16 + keep]);
+    }
+    out
+}
+
+/// `pcap` as captured with `-s snaplen`.
+fn snap_at(pcap: &[u8], snaplen: usize) -> Vec<u8> {
+    let recs = records(pcap);
+    snap(pcap, |k| Some(recs[k].1.saturating_sub(snaplen)))
+}
+
+/// Issue 42 #2, the reverse: whole packets whose original length counts a
+/// frame check sequence the capture did not keep (4 bytes more than the
+/// file holds) are not cut: the capture is read whole.
+#[test]
+fn a_frame_check_sequence_not_captured_does_not_cut_a_packet() {
+    let udp = fixture("udp-lo.pcap");
+    let mut fcs = udp.clone();
+    for (at, caplen) in records(&udp) {
+        fcs[at + 12..at + 16].copy_from_slice(&(caplen as u32 + 4).to_le_bytes());
+    }
+    let dir = std::env::temp_dir().join(format!("rri-fcs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = write(&dir, "fcs.pcap", &fcs);
+    let out = dir.join("corpus");
+    let (code, err) = robot(&["--replay", &file, "--extract", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 100);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -194,5 +243,35 @@ fn extract_writes_each_robot_message_of_every_fixture() {
             );
         }
         let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+/// Issue 42 #6: `--describe` tells what a capture holds with no sensor:
+/// the fixture's 100 robot messages, Ids 1 to 100 without a gap, each
+/// answered.
+#[test]
+fn describe_tells_what_the_capture_holds_without_a_sensor() {
+    for name in ["udp-lo.pcap", "tcp-lo.pcap"] {
+        let path = root().join("host-tests/captures").join(name);
+        let gsi = root().join("firmware/gsi/GSI");
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_robot"))
+            .args(["--gsi", gsi.to_str().unwrap()])
+            .args(["--replay", path.to_str().unwrap(), "--describe"])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{name}: {text} {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        for says in [
+            "the controller sent 100 messages: 100 with an Id (Ids 1 to 100), 0 without a readable Id",
+            "0 gaps skipping 0 Ids, 0 repeated, 0 out of order",
+            "100 answer a robot message, 0 answer none; 0 robot messages with an Id got no reply",
+            "the longest pause",
+        ] {
+            assert!(text.contains(says), "{name}: expected {says:?} in:\n{text}");
+        }
     }
 }

@@ -4,7 +4,7 @@
 //! [--show FIELD,… [--show-csv FILE] [--show-plot FILE.svg|.png]]
 //! [--replay FILE.pcap[ng] [--conversation ADDR:PORT] [--every MS |
 //! --as-fast] [--tolerance [FIELD=]TOL]… [--ignore FIELD]… [--ignore-values]
-//! [--diff FILE.csv]] [--extract DIR]`
+//! [--diff FILE.csv]] [--extract DIR | --describe]`
 //!
 //! Plays the robot controller against any RRI sensor, with messages it
 //! makes or (`--replay`) those of a capture from a cell. Exit status 0 if
@@ -39,7 +39,7 @@ struct Args {
     #[arg(long, value_name = "NAME")]
     device: Option<String>,
     /// The sensor's address, e.g. 127.0.0.1:3002.
-    #[arg(long, value_name = "ADDR:PORT", required_unless_present = "extract")]
+    #[arg(long, value_name = "ADDR:PORT", required_unless_present_any = ["extract", "describe"])]
     to: Option<SocketAddr>,
     /// Controller cycles to run (with --send: cycles of the greatest common period).
     #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..))]
@@ -91,9 +91,19 @@ struct Args {
     /// corpus for cargo qemu-bench -- --corpus DIR and the fuzz targets), and replay nothing.
     #[arg(long, value_name = "DIR", requires = "replay")]
     extract: Option<PathBuf>,
+    /// Describe the capture given with --replay and replay nothing (no sensor needed): what the
+    /// controller sent (Ids, gaps, restarts, malformed datagrams, the longest pause) and what
+    /// came back (each reply paired with its message, late ones, replies to nothing).
+    #[arg(long, requires = "replay", conflicts_with = "extract")]
+    describe: bool,
 }
 
-fn options(a: Args) -> RobotOptions {
+fn options(a: Args) -> (RobotOptions, bool) {
+    let describe = a.describe;
+    (options_of(a), describe)
+}
+
+fn options_of(a: Args) -> RobotOptions {
     let to =
         a.to.unwrap_or_else(|| SocketAddr::from(([127, 0, 0, 1], 0)));
     let mut o = RobotOptions::new(a.gsi, to);
@@ -121,7 +131,7 @@ fn options(a: Args) -> RobotOptions {
 }
 
 fn main() -> ExitCode {
-    let opts = options(Args::parse());
+    let (opts, describe) = options(Args::parse());
     let device = match load(&opts) {
         Ok(d) => d,
         Err(e) => {
@@ -130,6 +140,18 @@ fn main() -> ExitCode {
         }
     };
     let mut out = std::io::stdout();
+    if describe {
+        return match rri_robot::describe(&opts, &device) {
+            Ok(d) => {
+                let _ = d.print(&mut out);
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::from(2)
+            }
+        };
+    }
     if let Some(dir) = opts
         .replay
         .as_ref()

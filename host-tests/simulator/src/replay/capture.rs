@@ -8,7 +8,10 @@
 //! packets (from 1), with its time in microseconds.
 
 use etherparse::defrag::IpDefragPool;
-use etherparse::{EtherType, NetSlice, SlicedPacket, TcpSlice, TransportSlice, UdpSlice};
+use etherparse::{
+    EtherType, LaxNetSlice, LaxSlicedPacket, NetSlice, SlicedPacket, TcpSlice, TransportSlice,
+    UdpSlice,
+};
 use pcap_parser::pcapng::Block;
 use pcap_parser::{Linktype, PcapBlockOwned, PcapError};
 use std::net::SocketAddrV4;
@@ -41,12 +44,16 @@ pub struct Segment {
     pub payload: Vec<u8>,
 }
 
-/// A packet shorter in the file than on the wire (the capture's snapshot
-/// length): its number and, where its headers were whole, its endpoints.
+/// A packet whose IPv4 packet the file does not hold whole (cut by the
+/// capture's snapshot length): its number and, where its headers were
+/// whole, its addresses and endpoints. A frame whose original length only
+/// counts a frame check sequence that was not captured is not cut.
 #[derive(Clone, Debug)]
 pub struct Cut {
     pub number: usize,
     pub ends: Option<(SocketAddrV4, SocketAddrV4)>,
+    /// Source and destination address, where the IPv4 header was whole.
+    pub hosts: Option<(std::net::Ipv4Addr, std::net::Ipv4Addr)>,
 }
 
 /// What the file held.
@@ -60,6 +67,22 @@ pub struct Capture {
     pub cut: Vec<Cut>,
     /// Packets of a link type this reader does not take, by link type.
     pub other_links: Vec<(i32, usize)>,
+    /// Packets with no timestamp of their own (pcapng simple packet
+    /// blocks): given the time of the packet before.
+    pub untimed: Vec<usize>,
+}
+
+/// Timestamp units per second of a pcapng interface's `if_tsresol`: a
+/// power of ten, or of two when bit 7 is set (pcapng, 4.2). `None` for one
+/// that does not fit (pcap-parser 0.17's own gives `None` for every binary
+/// one, which read 2^-30 s units as microseconds).
+fn units_per_second(if_tsresol: u8) -> Option<u128> {
+    let n = u32::from(if_tsresol & 0x7f);
+    if if_tsresol & 0x80 == 0 {
+        10u128.checked_pow(n).filter(|_| n <= 19)
+    } else {
+        (n <= 63).then(|| 1u128 << n)
+    }
 }
 
 /// What the reader's last step came to.
@@ -85,7 +108,7 @@ struct Frame<'a> {
 struct Interface {
     link: Linktype,
     /// Timestamp units per second.
-    resolution: u64,
+    resolution: u128,
     /// Seconds added to every timestamp.
     offset: i64,
 }
@@ -110,6 +133,7 @@ pub fn read(path: &Path) -> Result<Capture, String> {
     let mut pool = IpDefragPool::<u64, ()>::new();
     let mut legacy: Option<(Linktype, bool)> = None;
     let mut interfaces: Vec<Interface> = Vec::new();
+    let mut last_us = 0;
     loop {
         let step = match reader.next() {
             Ok((consumed, block)) => {
@@ -138,7 +162,13 @@ pub fn read(path: &Path) -> Result<Capture, String> {
                     PcapBlockOwned::NG(Block::InterfaceDescription(i)) => {
                         interfaces.push(Interface {
                             link: i.linktype,
-                            resolution: i.ts_resolution().unwrap_or(1_000_000).max(1),
+                            resolution: units_per_second(i.if_tsresol).ok_or_else(|| {
+                                format!(
+                                    "{name}: interface {} has a timestamp resolution (if_tsresol {:#04x}) no clock has",
+                                    interfaces.len(),
+                                    i.if_tsresol
+                                )
+                            })?,
                             offset: i.ts_offset(),
                         });
                         None
@@ -153,7 +183,7 @@ pub fn read(path: &Path) -> Result<Capture, String> {
                             )
                         })?;
                         let ticks = (u128::from(p.ts_high) << 32) | u128::from(p.ts_low);
-                        let us = ticks * 1_000_000 / u128::from(i.resolution);
+                        let us = ticks * 1_000_000 / i.resolution;
                         let us = (us as i128 + i128::from(i.offset) * 1_000_000).max(0) as u64;
                         Some(Frame {
                             number,
@@ -164,8 +194,11 @@ pub fn read(path: &Path) -> Result<Capture, String> {
                         })
                     }
                     PcapBlockOwned::NG(Block::SimplePacket(p)) => {
-                        // No timestamp, and the first interface's link type.
+                        // No timestamp (it is given the packet before's,
+                        // and counted: recorded pacing cannot use it), and
+                        // the first interface's link type.
                         out.packets += 1;
+                        out.untimed.push(out.packets);
                         let i = interfaces.first().copied().ok_or_else(|| {
                             format!(
                                 "{name}: packet {} comes before any interface description",
@@ -174,7 +207,7 @@ pub fn read(path: &Path) -> Result<Capture, String> {
                         })?;
                         Some(Frame {
                             number: out.packets,
-                            at_us: 0,
+                            at_us: last_us,
                             link: i.link,
                             data: p.data,
                             cut: (p.data.len() as u64) < u64::from(p.origlen),
@@ -183,6 +216,7 @@ pub fn read(path: &Path) -> Result<Capture, String> {
                     PcapBlockOwned::NG(_) => None,
                 };
                 if let Some(f) = frame {
+                    last_us = f.at_us;
                     take(&f, &mut pool, &mut out);
                 }
                 Step::Consumed(consumed)
@@ -256,8 +290,69 @@ fn cooked(
     SlicedPacket::from_ether_type(EtherType(ty), data.get(payload..).unwrap_or(&[]))
 }
 
+/// The frame read leniently (lengths that say more than the file holds are
+/// allowed), to tell a packet cut by the snapshot length and its ends.
+fn lax(link: Linktype, data: &[u8]) -> Option<LaxSlicedPacket<'_>> {
+    let cooked = |proto: usize, payload: usize| {
+        let ty = data
+            .get(proto..proto + 2)
+            .map_or(0, |b| u16::from_be_bytes([b[0], b[1]]));
+        Some(LaxSlicedPacket::from_ether_type(
+            EtherType(ty),
+            data.get(payload..)?,
+        ))
+    };
+    match link {
+        Linktype::ETHERNET => LaxSlicedPacket::from_ethernet(data).ok(),
+        Linktype::LINUX_SLL => cooked(14, 16),
+        Linktype::LINUX_SLL2 => cooked(0, 20),
+        Linktype::RAW | Linktype::IPV4 => LaxSlicedPacket::from_ip(data).ok(),
+        Linktype::NULL | Linktype::LOOP => match (data.get(..4), data.get(4..)) {
+            (Some(family), Some(rest)) if family.contains(&2) => {
+                LaxSlicedPacket::from_ip(rest).ok()
+            }
+            _ => None,
+        },
+        _ => None,
+    }
+}
+
+/// The frame as a [`Cut`] if its IPv4 packet is not whole in the file
+/// (its header says more than was captured), or if the frame was cut
+/// before its IPv4 header could be read.
+fn cut(f: &Frame<'_>) -> Option<Cut> {
+    let Some(p) = lax(f.link, f.data) else {
+        return f.cut.then_some(Cut {
+            number: f.number,
+            ends: None,
+            hosts: None,
+        });
+    };
+    let Some(LaxNetSlice::Ipv4(ip)) = &p.net else {
+        return None;
+    };
+    if !ip.payload().incomplete {
+        return None;
+    }
+    let h = ip.header();
+    let (src, dst) = (h.source_addr(), h.destination_addr());
+    Some(Cut {
+        number: f.number,
+        ends: p
+            .transport
+            .as_ref()
+            .and_then(ports)
+            .map(|(a, b)| (SocketAddrV4::new(src, a), SocketAddrV4::new(dst, b))),
+        hosts: Some((src, dst)),
+    })
+}
+
 /// Takes one frame: its UDP datagram or TCP segment, once whole.
 fn take(f: &Frame<'_>, pool: &mut IpDefragPool<u64, ()>, out: &mut Capture) {
+    if let Some(c) = cut(f) {
+        out.cut.push(c);
+        return;
+    }
     let sliced = match slice(f.link, f.data) {
         Ok(s) => s,
         Err(link) => {
@@ -269,12 +364,6 @@ fn take(f: &Frame<'_>, pool: &mut IpDefragPool<u64, ()>, out: &mut Capture) {
         }
     };
     let Some(sliced) = sliced else {
-        if f.cut {
-            out.cut.push(Cut {
-                number: f.number,
-                ends: None,
-            });
-        }
         return;
     };
     let Some(NetSlice::Ipv4(ip)) = &sliced.net else {
@@ -303,27 +392,8 @@ fn take(f: &Frame<'_>, pool: &mut IpDefragPool<u64, ()>, out: &mut Capture) {
         }
         return;
     }
-    match &sliced.transport {
-        Some(t @ (TransportSlice::Udp(_) | TransportSlice::Tcp(_))) => {
-            if f.cut {
-                let ends =
-                    ports(t).map(|(a, b)| (SocketAddrV4::new(src, a), SocketAddrV4::new(dst, b)));
-                out.cut.push(Cut {
-                    number: f.number,
-                    ends,
-                });
-            } else {
-                push(f, src, dst, t, out);
-            }
-        }
-        _ => {
-            if f.cut {
-                out.cut.push(Cut {
-                    number: f.number,
-                    ends: None,
-                });
-            }
-        }
+    if let Some(t @ (TransportSlice::Udp(_) | TransportSlice::Tcp(_))) = &sliced.transport {
+        push(f, src, dst, t, out);
     }
 }
 
@@ -370,4 +440,111 @@ fn push(
         transport,
         payload: payload.to_vec(),
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn timestamp_resolutions_decimal_and_binary() {
+        // The default (no option): microseconds.
+        assert_eq!(units_per_second(6), Some(1_000_000));
+        assert_eq!(units_per_second(9), Some(1_000_000_000));
+        // Bit 7: a power of two (2^-30 s units).
+        assert_eq!(units_per_second(0x80 | 30), Some(1 << 30));
+        assert_eq!(units_per_second(20), None);
+        assert_eq!(units_per_second(0x80 | 64), None);
+    }
+
+    /// The blocks of a little-endian pcapng file: (type, body).
+    fn blocks(b: &[u8]) -> Vec<(u32, Vec<u8>)> {
+        let mut out = Vec::new();
+        let mut at = 0;
+        while at + 12 <= b.len() {
+            let kind = u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
+            let len = u32::from_le_bytes(b[at + 4..at + 8].try_into().unwrap()) as usize;
+            out.push((kind, b[at + 8..at + len - 4].to_vec()));
+            at += len;
+        }
+        out
+    }
+
+    fn block(kind: u32, body: &[u8]) -> Vec<u8> {
+        let total = (12 + body.len()) as u32;
+        let mut v = kind.to_le_bytes().to_vec();
+        v.extend_from_slice(&total.to_le_bytes());
+        v.extend_from_slice(body);
+        v.extend_from_slice(&total.to_le_bytes());
+        v
+    }
+
+    /// Issue 42 #4: a pcapng interface with binary timestamps (2^-30 s,
+    /// if_tsresol 0x9e) reads at the right times (was: as microseconds,
+    /// about 1000× too large), and a simple packet block gets the time of
+    /// the packet before it (was: 0, the epoch) and is counted.
+    #[test]
+    fn binary_timestamps_and_simple_packet_blocks_read_at_the_right_time() {
+        let dir = std::env::temp_dir().join(format!("rri-tsresol-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let made = dir.join("made.pcapng");
+        let (a, b): (std::net::SocketAddr, std::net::SocketAddr) = (
+            "10.0.0.1:40000".parse().unwrap(),
+            "10.0.0.2:3002".parse().unwrap(),
+        );
+        let packets: Vec<crate::pcap::Packet> = [0u64, 4_000, 8_000]
+            .iter()
+            .map(|&at_us| crate::pcap::Packet {
+                at_us,
+                from: a,
+                to: b,
+                payload: b"<RobData Id=\"1\"/>".to_vec(),
+            })
+            .collect();
+        let start = 1_700_000_000_000_000u64;
+        crate::pcap::write_pcap(&made, &packets, start, false).unwrap();
+        let mut out = Vec::new();
+        for (k, (kind, mut body)) in blocks(&std::fs::read(&made).unwrap())
+            .into_iter()
+            .enumerate()
+        {
+            match kind {
+                1 => {
+                    // if_tsresol (9) = 0x9e, then opt_endofopt.
+                    body.extend_from_slice(&[9, 0, 1, 0, 0x9e, 0, 0, 0, 0, 0, 0, 0]);
+                    out.extend(block(1, &body));
+                }
+                6 if k == 3 => {
+                    // The second packet as a simple packet block.
+                    let data = &body[20..];
+                    let mut spb = (data.len() as u32).to_le_bytes().to_vec();
+                    spb.extend_from_slice(data);
+                    spb.resize(4 + data.len().div_ceil(4) * 4, 0);
+                    out.extend(block(3, &spb));
+                }
+                6 => {
+                    let us = (u64::from(u32::from_le_bytes(body[4..8].try_into().unwrap())) << 32)
+                        | u64::from(u32::from_le_bytes(body[8..12].try_into().unwrap()));
+                    let ticks = (u128::from(us) << 30) / 1_000_000;
+                    body[4..8].copy_from_slice(&((ticks >> 32) as u32).to_le_bytes());
+                    body[8..12].copy_from_slice(&(ticks as u32).to_le_bytes());
+                    out.extend(block(6, &body));
+                }
+                _ => out.extend(block(kind, &body)),
+            }
+        }
+        let file = dir.join("binary.pcapng");
+        std::fs::write(&file, out).unwrap();
+        let c = read(&file).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        let at: Vec<u64> = c.segments.iter().map(|s| s.at_us - start).collect();
+        // Within a microsecond of the truth (2^-30 s ticks round down).
+        assert_eq!(at.len(), 3);
+        assert!(at[0] <= 1 && at[2].abs_diff(8_000) <= 1, "{at:?}");
+        assert_eq!(
+            at[1], at[0],
+            "the simple packet block takes the time before it"
+        );
+        assert_eq!(c.untimed, vec![2]);
+    }
 }

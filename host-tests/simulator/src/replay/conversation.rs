@@ -34,6 +34,9 @@ pub struct Conversation {
     pub device: SocketAddrV4,
     pub tcp: bool,
     pub messages: Vec<Message>,
+    /// Messages completed by a packet with no timestamp of its own (a
+    /// pcapng simple packet block): the first's packet, and how many.
+    pub untimed: Option<(usize, usize)>,
 }
 
 /// A conversation seen in the file, for the list when the choice is not
@@ -146,7 +149,31 @@ pub fn find(
                 None => format!("no conversation on port {port} (the GSI folder's channel port)"),
             };
             let there = flows(capture);
-            return Err(if there.is_empty() {
+            // Its packets may all be there, cut by the snapshot length.
+            let on_port = |c: &&super::capture::Cut| {
+                c.ends.is_some_and(|(a, b)| match pick {
+                    Some(p) => a == p || b == p,
+                    None => a.port() == port || b.port() == port,
+                })
+            };
+            let cut_here: Vec<usize> = capture
+                .cut
+                .iter()
+                .filter(on_port)
+                .map(|c| c.number)
+                .collect();
+            return Err(if let Some(first) = cut_here.first() {
+                format!(
+                    "{what} whole: its {} packets were cut by the capture's snapshot length (the first: packet {first}); capture again with the whole packets (tcpdump -s 0, tshark -s 0)",
+                    cut_here.len()
+                )
+            } else if let (true, Some(c)) = (there.is_empty(), capture.cut.first()) {
+                format!(
+                    "{what}: the file holds no whole UDP or TCP packet over IPv4: {} packets were cut by the capture's snapshot length (the first: packet {}); capture again with the whole packets (tcpdump -s 0, tshark -s 0)",
+                    capture.cut.len(),
+                    c.number
+                )
+            } else if there.is_empty() {
                 format!("{what}: the file holds no UDP or TCP over IPv4 at all")
             } else {
                 format!(
@@ -174,12 +201,20 @@ pub fn find(
             && ((s.to == chosen.device && *s.from.ip() == chosen.controller)
                 || (s.from == chosen.device && *s.to.ip() == chosen.controller))
     };
-    if let Some(cut) = capture.cut.iter().find(|c| {
-        c.ends.is_some_and(|(a, b)| {
+    // A cut packet between the two hosts (its ports unread: a fragment, or
+    // cut inside its transport header) may be the conversation's too.
+    let between = |c: &&super::capture::Cut| match (c.ends, c.hosts) {
+        (Some((a, b)), _) => {
             (a == chosen.device && *b.ip() == chosen.controller)
                 || (b == chosen.device && *a.ip() == chosen.controller)
-        })
-    }) {
+        }
+        (None, Some((a, b))) => {
+            (a == *chosen.device.ip() && b == chosen.controller)
+                || (b == *chosen.device.ip() && a == chosen.controller)
+        }
+        (None, None) => false,
+    };
+    if let Some(cut) = capture.cut.iter().find(between) {
         return Err(format!(
             "packet {} of the conversation was cut by the capture's snapshot length: capture again with the whole packets (tcpdump -s 0, tshark -s 0)",
             cut.number
@@ -223,11 +258,17 @@ pub fn find(
             });
         }
     }
+    let untimed: Vec<usize> = messages
+        .iter()
+        .map(|m| m.number)
+        .filter(|n| capture.untimed.binary_search(n).is_ok())
+        .collect();
     Ok(Conversation {
         controller: chosen.controller,
         device: chosen.device,
         tcp: chosen.tcp,
         messages,
+        untimed: untimed.first().map(|&f| (f, untimed.len())),
     })
 }
 
@@ -315,6 +356,7 @@ mod tests {
                 SocketAddrV4::new(ROBOT.0.into(), ROBOT.1),
                 SocketAddrV4::new(DEVICE.0.into(), DEVICE.1),
             )),
+            hosts: Some((ROBOT.0.into(), DEVICE.0.into())),
         });
         let e = find(&c, 3002, None).unwrap_err();
         assert!(

@@ -14,16 +14,18 @@
 pub mod capture;
 pub mod compare;
 pub mod conversation;
+pub mod describe;
 mod report;
 mod tcp;
 
 pub use report::{Outcome, ReplayReport};
 
 use crate::link::Link;
-use crate::report::{Cycle, Summary};
+use crate::report::{Cycle, Injected, Summary};
 use crate::sim::{Sim, Waiting};
 use crate::{wire, RobotOptions};
 use conversation::{Conversation, Direction};
+use describe::Description;
 use gsi_config::{Device, Property};
 use std::collections::HashMap;
 use std::io::Write;
@@ -66,6 +68,21 @@ pub fn load(r: &ReplayOptions, device: &Device) -> Result<Conversation, String> 
         .map_err(|e| format!("{}: {e}", r.file.display()))
 }
 
+/// `--describe`: what the capture's conversation holds, with no sensor
+/// ([`describe`]); `reply` the property the device answers with.
+pub fn describe_file(
+    r: &ReplayOptions,
+    device: &Device,
+    reply: &Property,
+) -> Result<Description, String> {
+    let conv = load(r, device)?;
+    Ok(Description::of(
+        &conv,
+        reply.wire(),
+        tick_ms(&conv, Pace::Recorded),
+    ))
+}
+
 /// A robot message's `Id` (its root's attribute), if it has one.
 pub fn message_id(bytes: &[u8]) -> Option<u32> {
     let text = std::str::from_utf8(bytes).ok()?;
@@ -97,25 +114,6 @@ pub fn extract(conv: &Conversation, dir: &Path) -> Result<usize, String> {
         n += 1;
     }
     Ok(n)
-}
-
-/// The recorded replies by Id: the first device message with the reply
-/// property's root and that Id, and when it came.
-fn recorded_replies(conv: &Conversation, reply: &Property) -> HashMap<u32, (u64, Vec<u8>)> {
-    let mut out = HashMap::new();
-    for m in conv
-        .messages
-        .iter()
-        .filter(|m| m.direction == Direction::ToController)
-    {
-        if wire::root_name(&m.payload).as_deref() != Some(reply.wire()) {
-            continue;
-        }
-        if let Some(id) = message_id(&m.payload) {
-            out.entry(id).or_insert((m.at_us, m.payload.clone()));
-        }
-    }
-    out
 }
 
 /// The cycle the replay's lateness is judged against: the recorded
@@ -162,11 +160,18 @@ pub fn run(
             conv.device
         )
     })?;
+    if let (Pace::Recorded, Some((first, n))) = (r.pace, conv.untimed) {
+        return Err(format!(
+            "{}: {n} messages of the conversation have no timestamp (pcapng simple packet blocks; the first: packet {first}), so they cannot be sent at the recorded times: replay with --every MS or --as-fast",
+            r.file.display()
+        ));
+    }
     let sent_property = robot_property(device, &robot).ok_or(
         "the configuration has no property the controller sends (Flag WriteOnly or ReadWrite)",
     )?;
-    let recorded = recorded_replies(&conv, reply);
+    let (recorded, _) = describe::pair(&conv, &robot, reply.wire());
     let tick = tick_ms(&conv, r.pace);
+    let description = Description::of(&conv, reply.wire(), tick);
     let mut opts = opts.clone();
     opts.tcp = conv.tcp;
     opts.cycles = robot.len() as u64;
@@ -179,13 +184,15 @@ pub fn run(
     };
     let _ = writeln!(
         log,
-        "replaying {} robot messages of {} ({} ↔ {} over {}, {} recorded replies) to {}",
-        robot.len(),
+        "replaying {} of {} ({} ↔ {} over {}: {} robot messages with an Id, {} without (malformed: sent as recorded, no reply expected), {} recorded replies) to {}",
+        if conv.tcp { "the TCP messages" } else { "the datagrams" },
         r.file.display(),
         conv.controller,
         conv.device,
         if conv.tcp { "TCP" } else { "UDP" },
-        recorded.len(),
+        robot.len() - description.malformed,
+        description.malformed,
+        description.replies,
         opts.to
     );
     let mut sim = Sim::new(&opts, device, reply, link, tick, log);
@@ -202,6 +209,9 @@ pub fn run(
     let tick_d = Duration::from_millis(u64::from(tick));
     let mut previous: Vec<u32> = Vec::new();
     let mut sent_ids: Vec<Option<u32>> = Vec::with_capacity(robot.len());
+    // The simulator's record of each robot message with an Id (a datagram
+    // without one expects no reply: it is not a cycle, and not lost).
+    let mut cycle_of: Vec<Option<usize>> = Vec::with_capacity(robot.len());
     for (k, m) in robot.iter().enumerate() {
         let due = match r.pace {
             Pace::Recorded => sim.start + Duration::from_micros(m.at_us.saturating_sub(first_us)),
@@ -213,16 +223,17 @@ pub fn run(
         let id = message_id(&m.payload);
         let now = Instant::now();
         let index = sim.cycles.len();
-        sim.cycles.push(Cycle {
-            cycle: k as u64,
-            id: id.unwrap_or(0),
-            sent_us: sim.us(now),
-            reply_us: None,
-            dropped_by_fault: false,
-            property: 0,
-            shown: None,
-        });
+        cycle_of.push(id.map(|_| index));
         if let Some(id) = id {
+            sim.cycles.push(Cycle {
+                cycle: k as u64,
+                id,
+                sent_us: sim.us(now),
+                reply_us: None,
+                dropped_by_fault: false,
+                property: 0,
+                shown: None,
+            });
             sim.waiting.insert(
                 id,
                 Waiting {
@@ -249,7 +260,19 @@ pub fn run(
     sim.collect_last(tick_d);
     let replayed = sim.replies.take().unwrap_or_default();
     let (mut s, cycles, _) = sim.finish(&[(sent_property, tick)]);
-    let report = report::build(&conv, &robot, &sent_ids, &cycles, &recorded, &replayed, r);
+    s.as_recorded = Injected {
+        dropped: description.ids.skipped,
+        garbage: description.malformed as u64,
+        ..Injected::default()
+    };
+    let run = report::Run {
+        ids: &sent_ids,
+        cycle_of: &cycle_of,
+        cycles: &cycles,
+        recorded: &recorded,
+        replayed: &replayed,
+    };
+    let report = report::build(&conv, &robot, &run, description, r);
     if let Some(p) = &r.diff_csv {
         if let Err(e) = report.write_csv(p) {
             s.output_errors.push(format!("--diff {}: {e}", p.display()));

@@ -4,6 +4,7 @@
 
 use super::compare::{compare, Difference};
 use super::conversation::{Conversation, Message};
+use super::describe::Description;
 use super::ReplayOptions;
 use crate::report::{Cycle, Latency};
 use serde::Serialize;
@@ -22,7 +23,7 @@ pub enum Outcome {
     NotAnswered,
     /// This sensor answered it; the recorded one did not.
     AnsweredNow,
-    /// Neither answered it (no Id, or both refused it).
+    /// Neither answered it (both refused it).
     Neither,
 }
 
@@ -57,21 +58,36 @@ pub struct ReplayReport {
     pub not_answered: usize,
     pub answered_now: usize,
     pub neither: usize,
+    /// Robot datagrams without a readable Id: sent as recorded, refused
+    /// by the sensor, neither lost nor compared.
+    pub malformed: usize,
+    /// What the capture held.
+    pub capture: Description,
     pub recorded_latency_us: Latency,
     pub replayed_latency_us: Latency,
     pub rows: Vec<Row>,
 }
 
+/// What the replay's run gave, per robot message (capture order).
+pub(super) struct Run<'a> {
+    /// Each message's Id (`None`: malformed, no reply expected).
+    pub ids: &'a [Option<u32>],
+    /// Each message's record in `cycles` (`None` without an Id).
+    pub cycle_of: &'a [Option<usize>],
+    pub cycles: &'a [Cycle],
+    /// The recorded reply of each message ([`super::describe::pair`]).
+    pub recorded: &'a super::describe::Paired,
+    /// The replayed replies by their message's index in `cycles`.
+    pub replayed: &'a HashMap<usize, Vec<u8>>,
+}
+
 /// Builds the report from the run: `robot` the replayed messages in order,
-/// `ids` their Ids, `cycles` the simulator's records of them, `recorded`
-/// and `replayed` the replies by Id.
+/// `capture` what the capture held.
 pub(super) fn build(
     conv: &Conversation,
     robot: &[&Message],
-    ids: &[Option<u32>],
-    cycles: &[Cycle],
-    recorded: &HashMap<u32, (u64, Vec<u8>)>,
-    replayed: &HashMap<u32, Vec<u8>>,
+    run: &Run<'_>,
+    capture: Description,
     r: &ReplayOptions,
 ) -> ReplayReport {
     let mut rep = ReplayReport {
@@ -82,16 +98,26 @@ pub(super) fn build(
             conv.device,
             if conv.tcp { "TCP" } else { "UDP" }
         ),
-        messages: robot.len(),
+        messages: robot.len() - capture.malformed,
+        malformed: capture.malformed,
+        capture,
         ..ReplayReport::default()
     };
     let (mut rec_lat, mut rep_lat) = (Vec::new(), Vec::new());
     for (k, m) in robot.iter().enumerate() {
-        let id = ids.get(k).copied().flatten();
-        let old = id.and_then(|i| recorded.get(&i));
-        let new = id.and_then(|i| replayed.get(&i));
+        let id = run.ids.get(k).copied().flatten();
+        if id.is_none() {
+            // Malformed: sent as recorded, expected to be refused; the
+            // capture's description counts it.
+            continue;
+        }
+        let cycle = run.cycle_of.get(k).copied().flatten();
+        let old = run.recorded.get(k).and_then(Option::as_ref);
+        let new = cycle.and_then(|i| run.replayed.get(&i));
         let recorded_latency_us = old.map(|(at, _)| at.saturating_sub(m.at_us));
-        let replayed_latency_us = cycles.get(k).and_then(Cycle::latency_us);
+        let replayed_latency_us = cycle
+            .and_then(|i| run.cycles.get(i))
+            .and_then(Cycle::latency_us);
         rec_lat.extend(recorded_latency_us);
         rep_lat.extend(replayed_latency_us);
         let (outcome, differences) = match (old, new) {
@@ -178,6 +204,7 @@ impl ReplayReport {
     /// The summary's replay lines.
     pub fn print(&self, out: &mut dyn Write) -> io::Result<()> {
         writeln!(out, "  replay of {} ({}):", self.file, self.conversation)?;
+        self.capture.print(out)?;
         if let Some(row) = self.rows.iter().find(|r| r.outcome == Outcome::NotAnswered) {
             writeln!(
                 out,
@@ -194,8 +221,8 @@ impl ReplayReport {
         }
         writeln!(
             out,
-            "    robot messages {}: same reply {}, different reply {}, answered in the capture only {}, answered now only {}, by neither {}",
-            self.messages, self.same, self.differ, self.not_answered, self.answered_now, self.neither
+            "    replayed: robot messages with an Id {}: same reply {}, different reply {}, answered in the capture only {}, answered now only {}, by neither {}; without an Id (malformed, sent as recorded) {}",
+            self.messages, self.same, self.differ, self.not_answered, self.answered_now, self.neither, self.malformed
         )?;
         let mut by_field: Vec<(String, usize)> = Vec::new();
         for (f, ..) in self.rows.iter().flat_map(|r| r.differences.iter()) {

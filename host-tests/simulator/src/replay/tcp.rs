@@ -13,17 +13,27 @@ pub type Framed = (usize, u64, Vec<u8>);
 /// The messages of one direction, `segments` in capture order.
 pub fn messages(segments: &[&Segment]) -> Result<Vec<Framed>, String> {
     let mut out = Vec::new();
-    let mut framer = Box::new(rri_framing::Framer::<65_536>::new());
-    for (number, at_us, bytes) in in_order(segments)? {
-        framer
-            .push(&bytes, |m| out.push((number, at_us, m.to_vec())))
-            .map_err(|_| format!("packet {number}: not RRI's TCP framing (M10): a message longer than 64 KiB or not XML"))?;
+    for connection in connections(segments) {
+        // Each connection frames from its own first byte.
+        let mut framer = Box::new(rri_framing::Framer::<65_536>::new());
+        for (number, at_us, bytes) in in_order(&connection)? {
+            framer
+                .push(&bytes, |m| out.push((number, at_us, m.to_vec())))
+                .map_err(|_| format!("packet {number}: not RRI's TCP framing (M10): a message longer than 64 KiB or not XML"))?;
+        }
     }
     Ok(out)
 }
 
 /// The stream's bytes in order, each run with the packet that made it
-/// available and that packet's time.
+/// available and that packet's time. `segments` is one connection's one
+/// direction (a new SYN starts another: [`connections`]).
+///
+/// Sequence numbers are unwrapped against the last one seen (each is less
+/// than 2^31 from it), so a stream longer than 4 GiB keeps its order, and
+/// bytes from before where the stream starts (a capture that began
+/// mid-connection, then a retransmission of earlier bytes) are old, not a
+/// gap.
 pub fn in_order(segments: &[&Segment]) -> Result<Vec<Framed>, String> {
     // Where the stream starts: after the SYN, or (a capture that began
     // mid-connection) at the first segment seen.
@@ -40,6 +50,10 @@ pub fn in_order(segments: &[&Segment]) -> Result<Vec<Framed>, String> {
             Transport::Tcp { seq, .. } => seq,
             Transport::Udp => 0,
         });
+    let mut unwrap = Unwrap {
+        last: base,
+        offset: 0,
+    };
     let mut delivered: u64 = 0;
     let mut early: BTreeMap<u64, (usize, u64, Vec<u8>)> = BTreeMap::new();
     let mut out: Vec<Framed> = Vec::new();
@@ -47,15 +61,23 @@ pub fn in_order(segments: &[&Segment]) -> Result<Vec<Framed>, String> {
         let Transport::Tcp { seq, syn, .. } = s.transport else {
             continue;
         };
+        // Data on a SYN starts one after its sequence number.
+        let seq = seq.wrapping_add(u32::from(syn));
+        let offset = unwrap.offset_of(seq);
         if s.payload.is_empty() {
             continue;
         }
-        // Data on a SYN starts one after its sequence number.
-        let start = seq.wrapping_add(u32::from(syn)).wrapping_sub(base);
+        // Bytes before the stream's start were delivered before the
+        // capture began: only what follows them is new.
+        let skip = usize::try_from(-offset).unwrap_or(0);
+        let Some(bytes) = s.payload.get(skip..).filter(|b| !b.is_empty()) else {
+            continue;
+        };
+        let start = offset.max(0) as u64;
         // A retransmission from the same place keeps the longer of the two.
-        let piece = (s.number, s.at_us, s.payload.clone());
+        let piece = (s.number, s.at_us, bytes.to_vec());
         early
-            .entry(u64::from(start))
+            .entry(start)
             .and_modify(|kept| {
                 if piece.2.len() > kept.2.len() {
                     *kept = piece.clone();
@@ -86,6 +108,36 @@ pub fn in_order(segments: &[&Segment]) -> Result<Vec<Framed>, String> {
         ));
     }
     Ok(out)
+}
+
+/// Sequence numbers as offsets from the stream's start, unwrapped against
+/// the last one seen (TCP keeps every segment within 2^31 of it).
+struct Unwrap {
+    last: u32,
+    offset: i64,
+}
+
+impl Unwrap {
+    fn offset_of(&mut self, seq: u32) -> i64 {
+        self.offset += i64::from(seq.wrapping_sub(self.last) as i32);
+        self.last = seq;
+        self.offset
+    }
+}
+
+/// One direction's segments (capture order) split into connections: a
+/// SYN starts a new one (a controller that reconnects from the same port
+/// starts a new stream, not the old one's continuation).
+pub fn connections<'a>(segments: &[&'a Segment]) -> Vec<Vec<&'a Segment>> {
+    let mut out: Vec<Vec<&'a Segment>> = Vec::new();
+    for s in segments {
+        let syn = matches!(s.transport, Transport::Tcp { syn: true, .. });
+        match out.last_mut() {
+            Some(c) if !syn || c.is_empty() => c.push(s),
+            _ => out.push(vec![*s]),
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -149,6 +201,55 @@ mod tests {
         ];
         let refs: Vec<&Segment> = s.iter().collect();
         assert_eq!(bytes(&in_order(&refs).unwrap()), b"hello world");
+    }
+
+    /// Issue 42 #3: a capture that starts mid-stream and then sees a
+    /// retransmission of bytes from before its first segment (was: a false
+    /// gap of nearly 4 GiB).
+    #[test]
+    fn a_retransmission_from_before_a_mid_stream_capture_is_old() {
+        let s = [
+            seg(7, 5000, false, b"hello "),
+            seg(8, 4990, false, b"0123456789hel"), // old, then "hel" again
+            seg(9, 5006, false, b"world"),
+        ];
+        let refs: Vec<&Segment> = s.iter().collect();
+        assert_eq!(bytes(&in_order(&refs).unwrap()), b"hello world");
+    }
+
+    /// Issue 42 #3: past 4 GiB of stream the offsets keep growing (were
+    /// taken modulo 2^32, so every later segment was dropped as old).
+    #[test]
+    fn offsets_past_4_gib_keep_growing() {
+        let mut u = Unwrap {
+            last: 1000,
+            offset: 0,
+        };
+        let step = 1u32 << 30;
+        let mut seq = 1000u32;
+        for k in 1..=6i64 {
+            seq = seq.wrapping_add(step);
+            assert_eq!(u.offset_of(seq), k << 30);
+        }
+        // A retransmission from before is behind, not 4 GiB ahead.
+        assert_eq!(u.offset_of(seq.wrapping_sub(10)), (6i64 << 30) - 10);
+    }
+
+    /// Issue 42 #3: a reconnection from the same port starts a new stream
+    /// at its SYN (was: joined to the first connection's).
+    #[test]
+    fn a_reconnection_from_the_same_port_is_a_new_stream() {
+        let s = [
+            seg(1, 99, true, b""),
+            seg(2, 100, false, b"abc"),
+            seg(3, 7_000, true, b""),
+            seg(4, 7_001, false, b"xyz"),
+        ];
+        let refs: Vec<&Segment> = s.iter().collect();
+        let c = connections(&refs);
+        assert_eq!(c.len(), 2);
+        assert_eq!(bytes(&in_order(&c[0]).unwrap()), b"abc");
+        assert_eq!(bytes(&in_order(&c[1]).unwrap()), b"xyz");
     }
 
     #[test]

@@ -91,7 +91,7 @@ impl Sim<'_> {
                 self.take_shown(bytes, index, reply.id, at);
             }
             if let Some(kept) = &mut self.replies {
-                kept.insert(reply.id, bytes.to_vec());
+                kept.insert(index, bytes.to_vec());
             }
             if !self.sup.operating && self.sup.tripped.is_none() {
                 self.sup.operating = true;
