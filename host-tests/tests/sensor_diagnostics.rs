@@ -48,7 +48,7 @@ fn every_injected_loss_shows_on_the_right_side_of_the_wire() {
     assert_eq!(replies.simulator, replies.device);
     // The garbage and the oversize datagrams are the decoder's rejections,
     // the duplicates its duplicates; the skipped Ids its lost ones.
-    assert_eq!(row("garbage").simulator, row("garbage").device);
+    assert_eq!(row("malformed").simulator, row("malformed").device);
     assert_eq!(row("messages duplicated").device, i.duplicated);
     assert_eq!(row("Ids skipped").device, i.dropped);
     assert!(!c.in_firmware, "{:?}", c.disagreements);
