@@ -21,15 +21,48 @@
 //! and below RAM, under flip-link's layout) locks the core up; the
 //! watchdog, once running, resets it.
 //!
+//! **Record first, and never log through a held logger** (issue 42 #13).
+//! A fault can strike while the logger is held (inside a `defmt` call, a
+//! stack overflow included): logging from the handler then panics in the
+//! logger ("taken reentrantly"), and a panic handler that writes its own
+//! record and logs again names the wrong cause and recurses until the
+//! core locks up, which only the watchdog ends, and nothing during
+//! `init`. So every handler writes the crash record before it logs, and
+//! the first handler to run claims [`claim`]: a panic or fault while one is
+//! being handled (the logger's own panic among them) keeps the first
+//! record, logs nothing and resets at once.
+//!
 //! The `fault-selftest` feature checks the handlers end to end (`cargo
 //! hil -- --fault`: on QEMU in CI, on a NUCLEO by hand), one start at a
 //! time, each reading what the crash record kept across the last reset
 //! (`hal_board::reset`): an undefined instruction at the end of `init`;
 //! after that HardFault, a recursion until the stack reaches its guard;
-//! after that overflow, the firmware goes on.
+//! after that overflow, an undefined instruction inside a log call (the
+//! logger held); after that HardFault, the firmware goes on.
 #![allow(unsafe_code)]
 
 use crate::reset::{Cause, Report};
+use core::sync::atomic::{AtomicBool, Ordering};
+
+/// Set by the first fault or panic handler to run.
+static HANDLING: AtomicBool = AtomicBool::new(false);
+
+/// Claims the handling of a fault or panic: `true` for the first handler
+/// to run, `false` when one is already being handled (then the caller
+/// keeps the first record, logs nothing and resets).
+pub(crate) fn claim() -> bool {
+    !HANDLING.swap(true, Ordering::SeqCst)
+}
+
+/// A value whose formatting executes an undefined instruction: a fault
+/// with the logger held (the self-test's third start).
+struct FaultWhileLogging;
+
+impl defmt::Format for FaultWhileLogging {
+    fn format(&self, _f: defmt::Formatter<'_>) {
+        cortex_m::asm::udf()
+    }
+}
 
 /// Logs why the board started (the crash record `crate::reset` kept
 /// across the reset: a fault's PC, a panic's file and line).
@@ -58,10 +91,17 @@ pub fn log_reset(r: &Report) {
 /// overflow's start.
 pub fn selftest(last: &Report) {
     match last.cause {
-        Cause::StackOverflow => {}
-        Cause::HardFault => {
+        Cause::StackOverflow => {
             // The firmware logs the last reset after `init`: this start
             // ends before, so it says it here.
+            log_reset(last);
+            defmt::warn!("fault self-test: an undefined instruction inside a log call");
+            defmt::info!("{}", FaultWhileLogging);
+        }
+        // The start after the fault inside a log call: the firmware goes
+        // on (and reports that HardFault after `init`).
+        Cause::HardFault if last.boots > 2 => {}
+        Cause::HardFault => {
             log_reset(last);
             crate::stack_guard::overflow_selftest()
         }

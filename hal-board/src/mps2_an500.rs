@@ -356,6 +356,12 @@ pub(crate) fn reset() -> ! {
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
+    // A panic while a fault or panic is handled (the logger's own, when
+    // that handler logs with the logger held): keep the first record,
+    // log nothing, reset (`crate::fault`).
+    if !crate::fault::claim() {
+        reset()
+    }
     if let Some(at) = info.location() {
         crate::reset::ram::note(&mut |r| r.panic(at.file(), at.line()));
     }

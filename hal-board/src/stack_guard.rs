@@ -183,7 +183,19 @@ mod on_target {
         };
         let (lr, pc, xpsr) = (frame(5), frame(6), frame(7));
         let (guard, end) = bounds();
-        if is_overflow(sp, end, cfsr, mmfar) {
+        let overflow = is_overflow(sp, end, cfsr, mmfar);
+        // The record first, then the log (`crate::fault`): a fault inside
+        // a log call cannot log, and a second fault or panic meanwhile
+        // keeps this record.
+        if !crate::fault::claim() {
+            crate::board::reset()
+        }
+        if overflow {
+            crate::reset::ram::note(&mut |r| r.stack_overflow(pc, lr));
+        } else {
+            crate::reset::ram::note(&mut |r| r.fault(pc, lr));
+        }
+        if overflow {
             defmt::error!(
                 "stack overflow at PC {=u32:#010x} LR {=u32:#010x}: the stack reached its guard at {=u32:#010x} (SP {=u32:#010x}; CFSR {=u32:#010x} HFSR {=u32:#010x} MMFAR {=u32:#010x}); resetting",
                 pc,
@@ -194,7 +206,6 @@ mod on_target {
                 hfsr,
                 mmfar
             );
-            crate::reset::ram::note(&mut |r| r.stack_overflow(pc, lr));
         } else {
             defmt::error!(
                 "{=str} at PC {=u32:#010x} LR {=u32:#010x} xPSR {=u32:#010x}: CFSR {=u32:#010x} HFSR {=u32:#010x} MMFAR {=u32:#010x} BFAR {=u32:#010x}; resetting",
@@ -207,7 +218,6 @@ mod on_target {
                 mmfar,
                 bfar
             );
-            crate::reset::ram::note(&mut |r| r.fault(pc, lr));
         }
         crate::board::reset()
     }

@@ -339,7 +339,39 @@ pub fn fault_check(dev: &mut dyn Device, start: Duration, restart: bool) -> Resu
     }
     seen.push_str("; ");
     seen.push_str(&overflow_check(dev)?);
+    seen.push_str("; ");
+    seen.push_str(&log_fault_check(dev)?);
     Ok(seen)
+}
+
+/// The start after the overflow faults inside a log call, the logger held
+/// (issue 42 #13): passes when the next start reports a HardFault from
+/// the crash record (not a panic: the handler must not log through the
+/// held logger, whose own panic would overwrite the record and recurse)
+/// and the firmware then goes on.
+fn log_fault_check(dev: &mut dyn Device) -> Result<String, String> {
+    const MARK: &str = "fault self-test: an undefined instruction inside a log call";
+    wait_count(dev, MARK, 1, Duration::from_secs(10))
+        .map_err(|e| format!("the fault inside a log call was not tried: {e}"))?;
+    let log = wait_count(
+        dev,
+        "last reset: HardFault at PC ",
+        2,
+        Duration::from_secs(10),
+    )
+    .map_err(|e| {
+        format!("after a fault inside a log call, the next start did not report a HardFault: {e}")
+    })?;
+    let after: Vec<&String> = log.iter().skip_while(|l| !l.contains(MARK)).collect();
+    if let Some(bad) = after
+        .iter()
+        .find(|l| l.contains("panic") || l.contains("last reset: stack overflow"))
+    {
+        return Err(format!(
+            "after the fault inside a log call the record or the log names another cause: {bad}"
+        ));
+    }
+    Ok("a fault inside a log call (the logger held) left a HardFault in the crash record, logged nothing through the held logger, and the next start reported it".into())
 }
 
 /// The start after the HardFault recurses until the stack reaches its

@@ -357,6 +357,12 @@ fn reset_after_logs() -> ! {
 /// it gets here.
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
+    // A panic while a fault or panic is handled (the logger's own, when
+    // that handler logs with the logger held): keep the first record,
+    // log nothing, reset (`crate::fault`).
+    if !crate::fault::claim() {
+        reset_after_logs()
+    }
     if let Some(at) = info.location() {
         crate::reset::ram::note(&mut |r| r.panic(at.file(), at.line()));
     }

@@ -255,7 +255,7 @@ fn start(board: &HilBoard, args: &Args, setup: &Setup, elf: PathBuf) -> Result<S
             Some(engine_board) => {
                 // `--fault` restarts the chip twice (the fault, then the
                 // stack overflow): the model restarts it as often.
-                let resets = if args.fault { "2" } else { "0" };
+                let resets = if args.fault { "3" } else { "0" };
                 let (dev, to, http) =
                     host_tests::rehost::boot_elf(engine_board, setup, &elf, &["--resets", resets])?;
                 Ok((Box::new(dev), to, http))
