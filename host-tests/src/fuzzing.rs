@@ -306,7 +306,7 @@ pub fn cycle(data: &[u8]) {
             );
         }
         let s = engine.stats();
-        assert_eq!(s.received, calls);
+        assert_eq!(s.received, u64::from(calls));
         let dropped = s.dropped_foreign
             + s.dropped_invalid_source
             + s.dropped_throttled
@@ -317,7 +317,7 @@ pub fn cycle(data: &[u8]) {
             s.answered + dropped,
             "every message answered or dropped"
         );
-        assert_eq!(s.decode_errors.iter().sum::<u32>(), s.dropped_decode);
+        assert_eq!(s.decode_errors.iter().sum::<u64>(), s.dropped_decode);
         assert_eq!(s.sent, s.answered + s.periodic_sent);
     }
 }

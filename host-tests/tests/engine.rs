@@ -333,7 +333,7 @@ fn invalid_sources_are_never_admitted() {
     }
     assert!(matches!(rig.send(ROBOT, 2, 30), Outcome::Reply { to, .. } if to == ROBOT));
     let s = rig.engine.stats();
-    assert_eq!(s.dropped_invalid_source, 2 * spoofed.len() as u32);
+    assert_eq!(s.dropped_invalid_source, 2 * spoofed.len() as u64);
     assert_eq!(
         (s.peer_locked, s.port_takeovers, s.lost, s.answered),
         (1, 0, 0, 2)

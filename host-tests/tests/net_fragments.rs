@@ -233,14 +233,18 @@ fn strangers_sets_interleaved_with_the_controllers_cost_it_nothing() {
         }
         let s: FragmentStats = link.stats();
         println!("S5: {rounds} fragmented robot messages among strangers' fragments: {s:?}");
-        assert_eq!(s.controller_datagrams, rounds);
+        assert_eq!(s.controller_datagrams, u64::from(rounds));
         assert_eq!((s.controller_dropped, s.controller_incomplete), (0, 0));
         assert!(s.evicted + s.no_buffer > 0 && s.oversize > 0, "{s:?}");
     });
     let s = e.stats();
-    assert_eq!((s.received, s.answered), (rounds, rounds));
     assert_eq!(
-        s.fragments.controller_datagrams, rounds,
+        (s.received, s.answered),
+        (u64::from(rounds), u64::from(rounds))
+    );
+    assert_eq!(
+        s.fragments.controller_datagrams,
+        u64::from(rounds),
         "the engine has the guard's counters"
     );
 }

@@ -356,7 +356,7 @@ fn end_to_end(tcp: bool) {
     assert_eq!(st.max_lost_exceeded, 0);
     // The sensor goes on sending until it is stopped, after the run.
     assert!(
-        u64::from(st.periodic_sent) >= periodic.2,
+        st.periodic_sent >= periodic.2,
         "every periodic message the simulator counted was sent"
     );
 }

@@ -104,7 +104,7 @@ fn fault_drop_shows_as_lost_ids_on_the_device_s3() {
         .rev()
         .take_while(|c| c.dropped_by_fault)
         .count() as u32;
-    assert_eq!(r.stats.lost, dropped - tail);
+    assert_eq!(r.stats.lost, u64::from(dropped - tail));
     assert_eq!(r.stats.max_lost_exceeded, 0);
     assert_eq!(r.state, SensorState::Operating);
     assert!(s.passed(), "{:?}", s.failure());
@@ -116,11 +116,10 @@ fn fault_duplicate_is_answered_twice_and_counted_s3() {
     let (s, _, r) = faulty(vec![Fault::Duplicate(5.0)], 1000, layout::ENGINE_CONFIG);
     assert!(s.duplicate_replies > 20);
     assert_eq!(
-        u64::from(r.stats.duplicates),
-        s.duplicate_replies,
+        r.stats.duplicates, s.duplicate_replies,
         "every duplicate answered (S3)"
     );
-    assert_eq!(u64::from(r.stats.answered), 1000 + s.duplicate_replies);
+    assert_eq!(r.stats.answered, 1000 + s.duplicate_replies);
     assert!(s.passed(), "{:?}", s.failure());
 }
 
@@ -391,7 +390,7 @@ fn summary_late_equals_the_csv_late_and_injected_faults_are_reported() {
     let dropped = cycles.iter().filter(|c| c.dropped_by_fault).count() as u64;
     assert_eq!(s.injected.dropped, dropped);
     assert!(s.injected.reordered > 10, "{:?}", s.injected);
-    assert_eq!(s.injected.duplicated, u64::from(r.stats.duplicates));
+    assert_eq!(s.injected.duplicated, r.stats.duplicates);
     assert_eq!(s.injected.duplicated, s.duplicate_replies);
     let mut text = Vec::new();
     s.print(&mut text).expect("print");

@@ -27,10 +27,10 @@ pub struct Counter {
     /// JSON key and Prometheus label value.
     pub key: &'static str,
     /// Its value in the engine's statistics.
-    pub get: fn(&Stats) -> u32,
+    pub get: fn(&Stats) -> u64,
 }
 
-const fn c(key: &'static str, get: fn(&Stats) -> u32) -> Counter {
+const fn c(key: &'static str, get: fn(&Stats) -> u64) -> Counter {
     Counter { key, get }
 }
 

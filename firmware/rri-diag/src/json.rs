@@ -138,7 +138,7 @@ pub fn write(out: &mut dyn Out, id: &Identity, s: &Status) {
     m.object("latency", &mut |l| {
         let h = &s.latency.histogram;
         l.text("source", s.latency.source.name());
-        l.num("count", h.count.into());
+        l.num("count", h.count);
         l.num("min_us", if h.count > 0 { h.min_us.into() } else { 0 });
         l.num("mean_us", h.mean_us());
         l.num("max_us", h.max_us.into());
@@ -151,7 +151,7 @@ pub fn write(out: &mut dyn Out, id: &Identity, s: &Status) {
                 None => o.str("null"),
             }
             o.str(",\"count\":");
-            o.u32(*n);
+            o.u64(*n);
             o.str("}");
         });
     });
@@ -307,13 +307,13 @@ fn counters(c: &mut Members<'_>, s: &Status, robot_properties: usize) {
     for family in FAMILIES.iter() {
         c.object(family.key, &mut |f| {
             for counter in family.members {
-                f.num(counter.key, (counter.get)(st).into());
+                f.num(counter.key, (counter.get)(st));
             }
         });
     }
     c.object("decode_errors", &mut |f| {
         for kind in DecodeErrorKind::ALL {
-            f.num(kind.name(), st.decode_errors_of(kind).into());
+            f.num(kind.name(), st.decode_errors_of(kind));
         }
     });
     c.array(

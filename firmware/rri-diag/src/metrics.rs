@@ -164,7 +164,7 @@ fn counters(o: &mut dyn Out, id: &Identity, s: &Status) {
         family(o, f.metric, "counter", f.help);
         for c in f.members {
             let v = (c.get)(st);
-            sample(o, f.metric, f.label.map(|l| (l, c.key)), V::N(v.into()));
+            sample(o, f.metric, f.label.map(|l| (l, c.key)), V::N(v));
         }
     }
     family(
@@ -179,7 +179,7 @@ fn counters(o: &mut dyn Out, id: &Identity, s: &Status) {
             o,
             "rri_decode_errors_total",
             Some(("kind", kind.name())),
-            V::N(v.into()),
+            V::N(v),
         );
     }
     family(
@@ -280,7 +280,7 @@ fn latency(o: &mut dyn Out, h: &Histogram) {
     family(o, NAME, "histogram", "Robot message in to reply out.");
     let mut cumulative: u64 = 0;
     for (i, n) in h.buckets.iter().enumerate() {
-        cumulative += u64::from(*n);
+        cumulative += *n;
         o.str(NAME);
         o.str("_bucket{le=\"");
         match Histogram::bucket_limit_us(i) {
@@ -297,7 +297,7 @@ fn latency(o: &mut dyn Out, h: &Histogram) {
     o.str("\n");
     o.str(NAME);
     o.str("_count ");
-    o.u32(h.count);
+    o.u64(h.count);
     o.str("\n");
     single(
         o,

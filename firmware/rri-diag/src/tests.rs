@@ -239,6 +239,61 @@ fn the_page_words_every_decode_error_and_event_the_json_names() {
     }
 }
 
+/// Issue 42 #11: past 2^32 (199 days at 250 Hz) the counters go on and
+/// the histogram stays valid: `+Inf` equals `_count` (were: counters
+/// stopped at u32::MAX while `+Inf` summed saturated buckets past it).
+#[test]
+fn counters_past_two_to_the_32_go_on_in_every_form() {
+    let mut st = status();
+    let big = (1u64 << 32) + 5;
+    st.snapshot.stats.received = big;
+    let mut h = Histogram::default();
+    h.buckets[9] = u64::from(u32::MAX);
+    h.buckets[10] = 10;
+    h.count = u64::from(u32::MAX) + 10;
+    h.record(600);
+    h.record(300);
+    st.latency.histogram = h;
+    let body = |route| {
+        let mut out = All(Vec::new());
+        respond(
+            &mut out,
+            Request {
+                route,
+                head_only: false,
+                gzip: false,
+            },
+            &identity(),
+            &st,
+        );
+        let split = out.0.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
+        String::from_utf8(out.0[split + 4..].to_vec()).unwrap()
+    };
+    let metrics = body(Route::Metrics);
+    assert!(
+        metrics.contains("rri_messages_total{outcome=\"received\"} 4294967301\n"),
+        "{metrics}"
+    );
+    let inf = metrics
+        .lines()
+        .find(|l| l.contains("le=\"+Inf\""))
+        .and_then(|l| l.rsplit(' ').next())
+        .unwrap();
+    let count = metrics
+        .lines()
+        .find(|l| l.starts_with("rri_reply_latency_seconds_count "))
+        .and_then(|l| l.rsplit(' ').next())
+        .unwrap();
+    assert_eq!(inf, count);
+    assert_eq!(count, (u64::from(u32::MAX) + 12).to_string());
+    let json: serde_json::Value = serde_json::from_str(&body(Route::Json)).unwrap();
+    assert_eq!(json["counters"]["messages"]["received"].as_u64(), Some(big));
+    assert_eq!(
+        json["latency"]["count"].as_u64(),
+        Some(u64::from(u32::MAX) + 12)
+    );
+}
+
 #[test]
 fn latency_histogram_adds_up_in_json() {
     let (_, body) = response(Route::Json, false);

@@ -41,7 +41,7 @@ use rri_firmware::network;
 use rri_firmware::sample::{SampleCell, SampleReader, SampleWriter};
 use rri_firmware::schema::Protocol;
 use rri_firmware::sensor::{Ring, Sampler, Sensor, SensorApp};
-use rri_firmware::snapshot::{Published, Snapshot};
+use rri_firmware::snapshot::Published;
 use static_cell::{ConstStaticCell, StaticCell};
 
 /// Spawns a task at start-up; a full task pool is a build mistake.
@@ -364,9 +364,9 @@ async fn cycle(stack: Stack<'static>, _reader: SampleReader<'static, Samples>) -
     }
     LINK.channel_open();
     // CONNECTED for the host tools, and a heartbeat for the watchdog.
-    let mut turn = Snapshot {
+    let mut turn = rri_firmware::snapshot::Snapshot {
         state: rri_firmware::engine::SensorState::Connected,
-        ..Snapshot::default()
+        ..rri_firmware::snapshot::Snapshot::default()
     };
     loop {
         turn.heartbeat = turn.heartbeat.wrapping_add(1);
@@ -393,7 +393,7 @@ struct Publisher {
 impl Publisher {
     fn publish(&mut self, engine: &DeviceEngine) {
         self.heartbeat = self.heartbeat.wrapping_add(1);
-        PUBLISHED.publish(&Snapshot::of(engine, self.heartbeat));
+        PUBLISHED.publish_of(engine, self.heartbeat);
     }
 }
 

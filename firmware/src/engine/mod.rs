@@ -187,6 +187,12 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
         self.stats
     }
 
+    /// Every counter, to copy once where it is wanted
+    /// ([`crate::snapshot::Published::publish_of`]).
+    pub fn stats_ref(&self) -> &Stats {
+        &self.stats
+    }
+
     /// The controller being answered (S4); `None` until one spoke.
     pub fn peer(&self) -> Option<Endpoint> {
         self.peers.peer()
@@ -439,7 +445,7 @@ impl<R: RobotSet, D: DeviceSet> Engine<R, D> {
                 if wrapped {
                     bump(&mut self.stats.id_wraps);
                 }
-                add(&mut self.stats.lost, lost);
+                add(&mut self.stats.lost, u64::from(lost));
                 lost > self.config.max_lost
             }
             IdEvent::Duplicate => {

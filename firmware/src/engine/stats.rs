@@ -10,9 +10,9 @@ use crate::codec::DecodeErrorKind;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Histogram {
     /// Latencies per bucket (see [`Histogram::bucket_limit_us`]).
-    pub buckets: [u32; Histogram::BUCKETS],
+    pub buckets: [u64; Histogram::BUCKETS],
     /// Latencies recorded.
-    pub count: u32,
+    pub count: u64,
     /// Shortest, µs; 0 while `count` is 0 (an empty histogram is all zero
     /// bytes, so the `static`s that hold one start in `.bss`, not in flash).
     pub min_us: u32,
@@ -76,9 +76,7 @@ impl Histogram {
 
     /// The mean in µs (0 while empty).
     pub fn mean_us(&self) -> u64 {
-        self.total_us
-            .checked_div(u64::from(self.count))
-            .unwrap_or(0)
+        self.total_us.checked_div(self.count).unwrap_or(0)
     }
 
     /// Upper bound (exclusive) of bucket `i` in µs; `None` for the last.
@@ -125,82 +123,86 @@ impl core::fmt::Display for DropReason {
 
 impl core::error::Error for DropReason {}
 
-/// Every counter of the engine. Counters saturate instead of wrapping.
+/// Every counter of the engine. Counters are `u64` (issue 42 #11): at the
+/// controller's 250 messages a second a `u32` stopped after 199 days,
+/// which a device in a cell outlives; a `u64` lasts two billion years, so
+/// its saturation (kept, not wrapping) is never reached in a service life.
+/// What it costs the cycle is measured by `cargo qemu-bench`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Stats {
     /// Datagrams (or TCP messages) handed to the engine.
-    pub received: u32,
+    pub received: u64,
     /// Replies produced (answers and periodic sends).
-    pub sent: u32,
+    pub sent: u64,
     /// Answers to robot messages (M8).
-    pub answered: u32,
+    pub answered: u64,
     /// Periodic sends of one-way streams.
-    pub periodic_sent: u32,
+    pub periodic_sent: u64,
     /// Not from the controller ([`DropReason::ForeignSource`], S4).
-    pub dropped_foreign: u32,
+    pub dropped_foreign: u64,
     /// From port 0 or a non-unicast address ([`DropReason::InvalidSource`]).
-    pub dropped_invalid_source: u32,
+    pub dropped_invalid_source: u64,
     /// Not the peer, within one cycle of the last such source decoded
     /// ([`DropReason::Throttled`]).
-    pub dropped_throttled: u32,
+    pub dropped_throttled: u64,
     /// Rejected by the decoder, all kinds ([`DropReason::Decode`]).
-    pub dropped_decode: u32,
+    pub dropped_decode: u64,
     /// Replies that did not fit the send buffer ([`DropReason::Encode`]).
-    pub dropped_encode: u32,
+    pub dropped_encode: u64,
     /// Per [`DecodeErrorKind`], in the order of `DecodeErrorKind::ALL`.
-    pub decode_errors: [u32; DecodeErrorKind::ALL.len()],
+    pub decode_errors: [u64; DecodeErrorKind::ALL.len()],
     /// S3: ids skipped (lost messages); a message that arrives late
     /// (reordered) fills its gap and is taken off again.
-    pub lost: u32,
+    pub lost: u64,
     /// S3: the same Id as the last one (answered all the same).
-    pub duplicates: u32,
+    pub duplicates: u64,
     /// S3: an Id older than the newest (arrived late; answered).
-    pub reordered: u32,
+    pub reordered: u64,
     /// The id counter wrapped from 4294967295 to 0.
-    pub id_wraps: u32,
+    pub id_wraps: u64,
     /// Gap bursts longer than `MaxLost` (S1).
-    pub max_lost_exceeded: u32,
+    pub max_lost_exceeded: u64,
     /// Silences longer than `TimeOut` while operating (S1).
-    pub timeouts: u32,
+    pub timeouts: u64,
     /// The first peer locked on.
-    pub peer_locked: u32,
+    pub peer_locked: u64,
     /// The peer's address changed after it was silent for `TimeOut`.
-    pub peer_takeovers: u32,
+    pub peer_takeovers: u64,
     /// The peer's source port changed (a controller that reconnected).
-    pub port_takeovers: u32,
+    pub port_takeovers: u64,
     /// S2 transitions, a change of error code included.
-    pub state_changes: u32,
+    pub state_changes: u64,
     /// M2 tolerances, summed over all messages (see [`crate::codec::Tally`]):
     /// unknown child elements, skipped.
-    pub unknown_elements: u32,
+    pub unknown_elements: u64,
     /// Unknown attributes, skipped (M2).
-    pub unknown_attributes: u32,
+    pub unknown_attributes: u64,
     /// Fields absent from a message, previous value kept (M2).
-    pub missing_fields: u32,
+    pub missing_fields: u64,
     /// Attributes absent from a frame, joints or array field, previous
     /// value kept (M4).
-    pub missing_values: u32,
+    pub missing_values: u64,
     /// Fields in the wrong shape (text for attributes or the other way
     /// round, or empty), previous value kept.
-    pub shape_mismatches: u32,
+    pub shape_mismatches: u64,
     /// Received strings cut at 80 bytes (M6).
-    pub truncated_strings: u32,
+    pub truncated_strings: u64,
     /// Non-whitespace text between a record's fields, skipped.
-    pub stray_text: u32,
+    pub stray_text: u64,
     /// M5: non-finite reals sent as zero.
-    pub non_finite: u32,
+    pub non_finite: u64,
     /// M10: TCP messages longer than the receive buffer.
-    pub framing_errors: u32,
+    pub framing_errors: u64,
     /// TCP peers that closed the connection.
-    pub closed: u32,
+    pub closed: u64,
     /// Replies the transport failed to send (a full queue, no route, a
     /// connection reset while writing): counted, never fatal.
-    pub send_errors: u32,
+    pub send_errors: u64,
     /// TCP connections the device closed because they stalled: an
     /// incomplete message held longer than `TimeOut`, or silence for
     /// `TimeOut` while another connection waited.
-    pub stalled_closed: u32,
+    pub stalled_closed: u64,
     /// Receive → reply-ready time of every answer (periodic sends are not
     /// timed).
     pub latency: Histogram,
@@ -257,11 +259,11 @@ impl Stats {
     };
 }
 
-pub(crate) fn bump(c: &mut u32) {
+pub(crate) fn bump(c: &mut u64) {
     *c = c.saturating_add(1);
 }
 
-pub(crate) fn add(c: &mut u32, n: u32) {
+pub(crate) fn add(c: &mut u64, n: u64) {
     *c = c.saturating_add(n);
 }
 
@@ -292,12 +294,12 @@ impl Stats {
     }
 
     /// Decode errors of one kind.
-    pub fn decode_errors_of(&self, kind: DecodeErrorKind) -> u32 {
+    pub fn decode_errors_of(&self, kind: DecodeErrorKind) -> u64 {
         self.decode_errors.get(kind.index()).copied().unwrap_or(0)
     }
 }
 
-/// The fragment counters (S5), saturating. Fragments dropped on arrival
+/// The fragment counters (S5), `u64` like [`Stats`]'s, saturating. Fragments dropped on arrival
 /// are counted per [`crate::fragments::FragmentDrop`], sets given up per
 /// [`crate::fragments::SetLoss`]; the fragment guard (`crate::fragments`)
 /// counts them.
@@ -305,41 +307,41 @@ impl Stats {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FragmentStats {
     /// IPv4 fragments that arrived (any protocol, any sender).
-    pub fragments: u32,
+    pub fragments: u64,
     /// Datagrams put together and handed to the stack.
-    pub reassembled: u32,
+    pub reassembled: u64,
     /// Fragments dropped: [`crate::fragments::FragmentDrop::Oversize`].
-    pub oversize: u32,
+    pub oversize: u64,
     /// Fragments dropped: [`crate::fragments::FragmentDrop::Unwanted`].
-    pub unwanted: u32,
+    pub unwanted: u64,
     /// Fragments dropped: [`crate::fragments::FragmentDrop::Malformed`].
-    pub malformed: u32,
+    pub malformed: u64,
     /// Fragments dropped: [`crate::fragments::FragmentDrop::NoBuffer`].
-    pub no_buffer: u32,
+    pub no_buffer: u64,
     /// Fragments dropped: [`crate::fragments::FragmentDrop::Duplicate`].
-    pub duplicate: u32,
+    pub duplicate: u64,
     /// Sets given up: [`crate::fragments::SetLoss::TimedOut`].
-    pub timed_out: u32,
+    pub timed_out: u64,
     /// Sets given up: [`crate::fragments::SetLoss::Evicted`] and [`crate::fragments::SetLoss::Superseded`].
-    pub evicted: u32,
+    pub evicted: u64,
     /// Sets given up: [`crate::fragments::SetLoss::Spoiled`].
-    pub spoiled: u32,
+    pub spoiled: u64,
     /// The controller's sets ([`crate::fragments::Rank::Controller`]) given up incomplete,
     /// timed out or superseded: a fragment of a robot message never
     /// reached the device (in time).
-    pub controller_incomplete: u32,
+    pub controller_incomplete: u64,
     /// The controller's robot messages lost in reassembly itself: a set
     /// spoiled by a malformed or overlapping fragment or a wrong UDP
     /// checksum once whole, or refused a buffer (never evicted: nothing
     /// ranks above them; a set shown oversize or for another port was no
     /// robot message and is not counted here).
-    pub controller_dropped: u32,
+    pub controller_dropped: u64,
     /// The controller's datagrams to the channel port handed to the stack
     /// whole and valid, in one frame (its IPv4 header checksum and length
     /// right; its UDP checksum is the NIC's or the stack's to check) or
     /// reassembled (its UDP checksum checked here): the robot messages
     /// that reached the device (the floods' losses are split with it).
-    pub controller_datagrams: u32,
+    pub controller_datagrams: u64,
 }
 
 impl FragmentStats {
@@ -361,7 +363,7 @@ impl FragmentStats {
     };
 
     /// Fragments dropped on arrival, all reasons.
-    pub fn dropped(&self) -> u32 {
+    pub fn dropped(&self) -> u64 {
         self.oversize
             .saturating_add(self.unwanted)
             .saturating_add(self.malformed)
@@ -370,7 +372,7 @@ impl FragmentStats {
     }
 
     /// Sets given up after holding a buffer, all reasons.
-    pub fn sets_lost(&self) -> u32 {
+    pub fn sets_lost(&self) -> u64 {
         self.timed_out
             .saturating_add(self.evicted)
             .saturating_add(self.spoiled)

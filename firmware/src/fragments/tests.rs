@@ -444,9 +444,13 @@ fn strangers_interleaved_with_the_controller_never_cost_it_a_message() {
 #[test]
 fn counters_saturate_and_stats_add_up() {
     let mut s = FragmentStats::ZERO;
-    s.no_buffer = u32::MAX;
+    // Past 2^32 (issue 42 #11: a u32 stopped there), on to u64's end.
+    s.no_buffer = u64::from(u32::MAX);
     s.count_drop(FragmentDrop::NoBuffer);
-    assert_eq!(s.no_buffer, u32::MAX);
+    assert_eq!(s.no_buffer, 1 << 32);
+    s.no_buffer = u64::MAX;
+    s.count_drop(FragmentDrop::NoBuffer);
+    assert_eq!(s.no_buffer, u64::MAX);
     s.count_loss(SetLoss::Superseded, Rank::Controller);
     assert_eq!(
         (s.evicted, s.controller_incomplete, s.sets_lost()),

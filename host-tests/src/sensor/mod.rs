@@ -129,7 +129,7 @@ fn state_text(state: SensorState, error: Option<ErrorCode>) -> String {
 pub fn stats_line(s: &Stats) -> String {
     let h = &s.latency;
     let mean = if h.count > 0 {
-        h.total_us as f64 / f64::from(h.count)
+        h.total_us as f64 / h.count as f64
     } else {
         0.0
     };
