@@ -306,6 +306,23 @@ fn catalogue() -> Vec<Case> {
             &format!(r#"<?xml version="1." encoding=""?>{GOOD_SHORT}"#),
             Answer,
         ),
+        // Issue 42 #16: the declaration's content is not checked, as the
+        // firmware README says (both were Malformed at byte 0).
+        case(
+            "declaration with an empty version: skipped",
+            &format!(r#"<?xml version=""?>{GOOD_SHORT}"#),
+            Answer,
+        ),
+        case(
+            "declaration with an empty version and standalone: skipped",
+            &format!(r#"<?xml version="" standalone=""?>{GOOD_SHORT}"#),
+            Answer,
+        ),
+        case(
+            "declaration with what no declaration has: skipped",
+            &format!(r#"<?xml  version='2' foo="bar" <x> ?>{GOOD_SHORT}"#),
+            Answer,
+        ),
         case(
             "empty declaration: skipped",
             &format!("<?xml?>{GOOD_SHORT}"),

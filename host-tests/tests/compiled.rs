@@ -464,8 +464,12 @@ fn bytes_outside_what_controllers_write_go_to_the_general_path() {
     // A declaration the compiled path does not read.
     assert!(over(&format!("<?xml version='1.0'?>{COMPACT}")).is_ok());
     assert!(over(&format!("<?xml version = \"1.0\"?>{COMPACT}")).is_ok());
+    // Its content is not checked (issue 42 #16; the firmware README).
+    assert!(over(&format!("<?xml version=\"1.0\"encoding=\"x\"?>{COMPACT}")).is_ok());
+    assert!(over(&format!("\u{feff}<?xml version=\"\"?>{COMPACT}")).is_ok());
+    // Once, first.
     assert_eq!(
-        over(&format!("<?xml version=\"1.0\"encoding=\"x\"?>{COMPACT}")),
+        over(&format!("<?xml version=\"\"?> <?xml?>{COMPACT}")),
         Err(K::Malformed)
     );
     // Wrong root, bad Id, values the parsers refuse.
