@@ -26,6 +26,11 @@
 #[cfg(test)]
 use critical_section as _;
 
+/// The watchdog's timeout on every board: not fed for this long (the
+/// cycle stopped turning, or start-up hangs), the board resets. The
+/// NUCLEO boards start it in `init`, before the Ethernet bring-up.
+pub const WATCHDOG_MS: u32 = 2_000;
+
 pub mod io;
 pub mod lan8742;
 pub mod lan9118;

@@ -78,8 +78,9 @@ const TCP_SOCKET: usize = if layout::MAX_RECEIVE_LEN > layout::MAX_SEND_LEN {
 const SOCKETS: usize = 2 + rri_diag::serve::SLOTS;
 #[cfg(not(rri_http))]
 const SOCKETS: usize = 2;
-/// The watchdog resets the board when the cycle stops turning this long.
-const WATCHDOG_MS: u32 = 2_000;
+/// The watchdog resets the board when the cycle stops turning this long
+/// (the board's: the NUCLEO boards start it in `init`).
+const WATCHDOG_MS: u32 = hal_board::WATCHDOG_MS;
 
 /// The board's driver as the stack sees it: behind the fragment guard
 /// (S5: robot messages longer than a frame are reassembled there, under

@@ -101,9 +101,14 @@ pub struct Board {
     pub reset: crate::reset::Report,
 }
 
-/// Why the board could not start. Nothing in start-up waits forever: a
-/// missing ST-LINK clock falls back to the HSI ([`clock`]), a PHY that does
-/// not answer is logged and retried ([`phy`]).
+/// Why the board could not start. Nothing in start-up waits forever
+/// unguarded: a missing ST-LINK clock falls back to the HSI ([`clock`]), a
+/// PHY that does not answer is logged and retried ([`phy`]), and the one
+/// wait without a bound, embassy-stm32's for the MAC's DMA to leave its
+/// software reset (it needs the PHY's 50 MHz reference clock), runs with
+/// the watchdog already started: a PHY that gives no clock resets the
+/// board after [`crate::WATCHDOG_MS`] (`cargo rehost -- --board f767
+/// --no-ref-clock` shows it).
 #[derive(Clone, Copy, Debug, defmt::Format)]
 pub enum InitError {
     /// `init` was called twice (the DMA rings are handed out once).
@@ -166,6 +171,13 @@ pub fn init() -> Result<Board, InitError> {
     let mac = crate::mac::from_unique_id(&uid);
     defmt::info!("MAC {=[u8]:02x} from unique ID {=[u8]:02x}", mac, uid);
     let packets = memory::packet_queue().ok_or(InitError::AlreadyStarted)?;
+    // The watchdog before the Ethernet bring-up (issue 42 #14):
+    // embassy-stm32 waits without a bound for the MAC's DMA to leave its
+    // software reset, which ends only once the PHY's 50 MHz reference
+    // clock runs. A PHY that gives none would leave a dark board for
+    // ever; with the watchdog running it resets, and the next start says
+    // so ("last reset: watchdog").
+    let watchdog = Watchdog::started(chip::iwdg!(p), crate::WATCHDOG_MS);
     let net = Ethernet::new_with_phy(
         packets,
         p.ETH,
@@ -199,10 +211,7 @@ pub fn init() -> Result<Board, InitError> {
             adc: Adc::new(p.ADC1),
             a0: p.PA3,
         },
-        watchdog: Watchdog {
-            peripheral: Some(chip::iwdg!(p)),
-            running: None,
-        },
+        watchdog,
         seed: u64::from_le_bytes(seed),
         reset,
     })
@@ -311,25 +320,29 @@ impl crate::io::Inputs for Inputs {
 }
 
 /// The independent watchdog: once started it cannot be stopped; not fed
-/// for `timeout_ms`, it resets the chip.
+/// for its timeout, it resets the chip. It runs from `init`, before the
+/// Ethernet bring-up, with [`crate::WATCHDOG_MS`].
 pub struct Watchdog {
-    peripheral: Option<Peri<'static, chip::Iwdg>>,
-    running: Option<IndependentWatchdog<'static, chip::Iwdg>>,
+    running: IndependentWatchdog<'static, chip::Iwdg>,
 }
 
 impl Watchdog {
+    fn started(p: Peri<'static, chip::Iwdg>, timeout_ms: u32) -> Watchdog {
+        let mut running = IndependentWatchdog::new(p, timeout_ms.saturating_mul(1000));
+        running.unleash();
+        Watchdog { running }
+    }
+
+    /// Running since `init` with [`crate::WATCHDOG_MS`] (the same on
+    /// every board; `timeout_ms` is the firmware's, which is that):
+    /// feeds it.
     pub fn start(&mut self, timeout_ms: u32) {
-        if let Some(p) = self.peripheral.take() {
-            let mut wdg = IndependentWatchdog::new(p, timeout_ms.saturating_mul(1000));
-            wdg.unleash();
-            self.running = Some(wdg);
-        }
+        let _ = timeout_ms;
+        self.running.pet();
     }
 
     pub fn feed(&mut self) {
-        if let Some(wdg) = self.running.as_mut() {
-            wdg.pet();
-        }
+        self.running.pet();
     }
 }
 

@@ -77,6 +77,11 @@ struct Args {
     /// How many times `--corpus` sends each message.
     #[arg(long, default_value_t = 20)]
     repeat: u32,
+    /// The PHY gives no 50 MHz reference clock (a dead or unstrapped
+    /// LAN8742A): the MAC's DMA never leaves its software reset, so the
+    /// image must not wait for it unguarded (issue 42 #14).
+    #[arg(long)]
+    no_ref_clock: bool,
     /// Print the device's log (defmt over RTT) as `device:` lines.
     #[arg(long, default_value_t = true)]
     log: bool,
@@ -111,6 +116,9 @@ fn main() {
     let mut m = Machine::new(chip, image, bus, clocks).unwrap_or_else(|e| fail(2, &e));
     m.rebuild = Some(rebuild);
     m.resets_left = args.resets;
+    if args.no_ref_clock {
+        m.uc.get_data_mut().shared.link.ref_clock = false;
+    }
     if let Some(addr) = until {
         m.stop_at(addr).unwrap_or_else(|e| fail(2, &e));
     }
