@@ -17,7 +17,8 @@ const BUDGET: u64 = CYCLE_AT_216MHZ / 4;
 
 /// The messages of `dir`, sorted by file name; the firmware's decoder
 /// says which it takes (the device answers those).
-fn inputs(dir: &Path) -> Result<Vec<(Input, Option<String>)>, String> {
+/// Each with the decoder's refusal (if any) and the file's length.
+fn inputs(dir: &Path) -> Result<Vec<(Input, Option<String>, usize)>, String> {
     let mut files: Vec<_> = std::fs::read_dir(dir)
         .map_err(|e| format!("--corpus {}: {e}", dir.display()))?
         .filter_map(Result::ok)
@@ -49,6 +50,7 @@ fn inputs(dir: &Path) -> Result<Vec<(Input, Option<String>)>, String> {
                 accepted: refused.is_none(),
             },
             refused,
+            bytes.len(),
         ));
     }
     Ok(out)
@@ -90,21 +92,26 @@ pub fn run(args: &Args, dir: &Path) -> Result<bool, String> {
     let socket = corpus_socket()?;
     let mut next_id = 1000;
     // The first datagram waits for ARP through slirp: not measured.
-    if let Some((first, _)) = inputs.iter().find(|(i, _)| i.accepted) {
+    if let Some((first, ..)) = inputs.iter().find(|(i, ..)| i.accepted) {
         measure(&board, &socket, to, first, 1, &mut next_id)?;
     }
     println!(
         "== your corpus, x{} each (instructions; full path = frame in to reply frame out)",
         args.repeat
     );
+    // Issue 42 #9: what is sent is not byte for byte the file.
+    println!(
+        "   bytes: the file's, then as sent: each send carries a fresh Id written as 10 digits (Id=\"0000001001\"), so every send of a message is as long as the others and costs the same; a file's Id=\"7\" is 9 bytes shorter"
+    );
     let mut worst: Option<(u64, String)> = None;
-    for (input, refused) in &inputs {
+    for (input, refused, file_len) in &inputs {
         let got: Vec<Record> = measure(&board, &socket, to, input, args.repeat, &mut next_id)?;
         let max = |f: fn(&Record) -> u32| got.iter().map(|r| instructions(f(r))).max().unwrap_or(0);
         let (compute, full) = (max(|r| r.compute), max(|r| r.full));
         println!(
-            "  {:<40} {:>6} B  {}  compute max {:>7}  full max {:>7}",
+            "  {:<40} {:>6} B (sent {:>6} B)  {}  compute max {:>7}  full max {:>7}",
             input.name,
+            file_len,
             input.len(),
             if input.accepted {
                 "answered"
