@@ -56,6 +56,10 @@ pub struct NicCounters {
     /// controller and by the application; STM32H7: `DMACMFCR` and
     /// `MTLRXQMPOCR`'s missed and overflow packets).
     pub rx_dropped: u32,
+    /// A counter behind `rx_dropped` overflowed between two reads (its
+    /// overflow flag was set): more frames were dropped than it could
+    /// count, and `rx_dropped` is a lower bound ([`missed`]).
+    pub rx_dropped_at_least: bool,
     /// Times the chip reported its receive status FIFO full (LAN9118:
     /// `INT_STS.RSFF`, seen by the interrupt handler).
     pub status_full: u32,
@@ -65,6 +69,23 @@ pub struct NicCounters {
     /// LAN9118's driver is ours and counts them; embassy-stm32's does
     /// not, so there only `rx_dropped` is a reading).
     pub fifo: bool,
+}
+
+/// Frames a clear-on-read missed-frame counter of `bits` bits says were
+/// dropped, given its overflow flag (issue 42 #12: they were ignored, so a
+/// flood between two reads came out silently low). With the flag set the
+/// counter passed its end, whether it then wrapped or stuck there (the
+/// manuals say only that the flag is set): at least its full count
+/// (2^bits - 1), or what it reads if that is more. Returns the count and
+/// whether it is a lower bound.
+pub const fn missed(value: u32, bits: u32, overflow: bool) -> (u32, bool) {
+    let full = (1u32 << bits) - 1;
+    let value = value & full;
+    if overflow {
+        (if value > full { value } else { full }, true)
+    } else {
+        (value, false)
+    }
 }
 
 /// The Ethernet link as the board sees it, for the diagnostics.
@@ -117,3 +138,18 @@ pub use mps2_an500 as board;
 /// The board this firmware is built for.
 #[cfg(all(feature = "stm32", target_os = "none"))]
 pub use nucleo as board;
+
+#[cfg(test)]
+mod missed_tests {
+    use super::missed;
+
+    #[test]
+    fn an_overflowed_counter_is_a_lower_bound_at_its_full_count() {
+        // F767 ETH_DMAMFBOCR: MFC 16 bits (OMFC), MFA 11 bits (OFOC).
+        assert_eq!(missed(12, 16, false), (12, false));
+        assert_eq!(missed(3, 16, true), (65_535, true));
+        assert_eq!(missed(7, 11, true), (2_047, true));
+        // Bits above the field are not the counter's.
+        assert_eq!(missed(1 << 11 | 5, 11, false), (5, false));
+    }
+}

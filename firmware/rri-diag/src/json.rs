@@ -331,6 +331,7 @@ fn counters(c: &mut Members<'_>, s: &Status, robot_properties: usize) {
         Some(n) => c.object("nic", &mut |f| {
             f.num("rx_frames", n.rx_frames.into());
             f.num("rx_dropped", n.rx_dropped.into());
+            f.flag("rx_dropped_at_least", n.rx_dropped_at_least);
             f.num("status_full", n.status_full.into());
             f.num("fifo_max", n.fifo_max.into());
         }),

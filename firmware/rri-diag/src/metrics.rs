@@ -245,6 +245,13 @@ fn board(o: &mut dyn Out, s: &Status) {
             "Frames the network chip dropped.",
             V::N(n.rx_dropped.into()),
         );
+        single(
+            o,
+            "rri_nic_rx_dropped_at_least",
+            "gauge",
+            "1 when a chip counter overflowed between reads: rri_nic_rx_dropped_total is then a lower bound.",
+            V::N(u64::from(n.rx_dropped_at_least)),
+        );
         if n.fifo {
             single(
                 o,

@@ -27,6 +27,10 @@ pub(crate) async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Wat
     loop {
         ticker.next().await;
         tick = tick.wrapping_add(1);
+        // The network chip's clear-on-read missed-frame counters, summed
+        // by the board ten times a second (their overflow flags say when
+        // even that was not often enough: issue 42 #12).
+        let _ = board::nic_counters();
         let now = PUBLISHED.latest();
         #[cfg(rri_http)]
         diagnostics::note(&last, &now, &mut link);
@@ -118,7 +122,7 @@ fn log_counters(s: &Snapshot) {
         st.reordered,
         st.timeouts,
         if st.latency.count > 0 { st.latency.max_us } else { 0 },
-        st.latency.total_us.checked_div(u64::from(st.latency.count)).unwrap_or(0),
+        st.latency.total_us.checked_div(st.latency.count).unwrap_or(0),
         fr.fragments,
         fr.reassembled,
         fr.oversize,

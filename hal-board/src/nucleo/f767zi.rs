@@ -95,10 +95,14 @@ pub fn reset_flags() -> crate::reset::Cause {
 }
 
 /// Frames the Ethernet DMA missed since the last call: ETH_DMAMFBOCR's
-/// MFC (no receive descriptor free) and MFA (receive FIFO overflow). The
+/// MFC (16 bits: no receive descriptor free) and MFA (11 bits: receive
+/// FIFO overflow), each with its overflow flag (OMFC bit 16, OFOC bit 28,
+/// RM0410): with a flag set the count is a lower bound (`true`). The
 /// register clears when read: only ever `read()` it (a `modify` would
 /// lose the counts). Not yet checked on silicon.
-pub fn missed_frames() -> u32 {
-    let r = embassy_stm32::pac::ETH.ethernet_dma().dmamfbocr().read();
-    u32::from(r.mfc()) + u32::from(r.mfa())
+pub fn missed_frames() -> (u32, bool) {
+    let r = embassy_stm32::pac::ETH.ethernet_dma().dmamfbocr().read().0;
+    let (mfc, a) = crate::missed(r, 16, r & (1 << 16) != 0);
+    let (mfa, b) = crate::missed(r >> 17, 11, r & (1 << 28) != 0);
+    (mfc.saturating_add(mfa), a || b)
 }

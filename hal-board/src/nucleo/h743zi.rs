@@ -121,12 +121,17 @@ pub fn reset_flags() -> crate::reset::Cause {
 }
 
 /// Frames the Ethernet receive path missed since the last call: the DMA
-/// channel's DMACMFCR (MFC) and the MTL receive queue's MTLRXQMPOCR
-/// (missed and overflow packets). Both clear when read. Not yet checked
-/// on silicon.
-pub fn missed_frames() -> u32 {
+/// channel's DMACMFCR (MFC, 11 bits, overflow MFCO bit 15) and the MTL
+/// receive queue's MTLRXQMPOCR (OVFPKTCNT 11 bits with OVFCNTOVF bit 11,
+/// MISPKTCNT bits 16-26 with MISCNTOVF bit 27; RM0433): with an overflow
+/// flag set the count is a lower bound (`true`). Both clear when read.
+/// Not yet checked on silicon.
+pub fn missed_frames() -> (u32, bool) {
     let eth = embassy_stm32::pac::ETH;
-    let dma = eth.ethernet_dma().dmacmfcr().read();
-    let mtl = eth.ethernet_mtl().mtlrx_qmpocr().read();
-    u32::from(dma.mfc()) + u32::from(mtl.mispktcnt()) + u32::from(mtl.ovfpktcnt())
+    let dma = eth.ethernet_dma().dmacmfcr().read().0;
+    let mtl = eth.ethernet_mtl().mtlrx_qmpocr().read().0;
+    let (mfc, a) = crate::missed(dma, 11, dma & (1 << 15) != 0);
+    let (ovf, b) = crate::missed(mtl, 11, mtl & (1 << 11) != 0);
+    let (mis, c) = crate::missed(mtl >> 16, 11, mtl & (1 << 27) != 0);
+    (mfc.saturating_add(ovf).saturating_add(mis), a || b || c)
 }

@@ -267,17 +267,24 @@ pub fn cycle_counter() -> u32 {
 /// counts nothing itself, so only `rx_dropped` is a reading. Not yet
 /// checked on silicon: the register reads are from the reference manuals
 /// and stm32-metapac.
+/// Housekeeping reads them ten times a second (its tick), so a counter
+/// that overflows between reads takes a flood of 2,048 frames in 100 ms;
+/// when one does, its overflow flag makes the sum a lower bound
+/// (`rx_dropped_at_least`, kept from then on).
 pub fn nic_counters() -> Option<crate::NicCounters> {
     static DROPPED: embassy_sync::blocking_mutex::Mutex<
         embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex,
-        core::cell::Cell<u32>,
-    > = embassy_sync::blocking_mutex::Mutex::new(core::cell::Cell::new(0));
-    let rx_dropped = DROPPED.lock(|d| {
-        d.set(d.get().saturating_add(chip::missed_frames()));
+        core::cell::Cell<(u32, bool)>,
+    > = embassy_sync::blocking_mutex::Mutex::new(core::cell::Cell::new((0, false)));
+    let (rx_dropped, rx_dropped_at_least) = DROPPED.lock(|d| {
+        let (sum, lower) = d.get();
+        let (n, overflowed) = chip::missed_frames();
+        d.set((sum.saturating_add(n), lower || overflowed));
         d.get()
     });
     Some(crate::NicCounters {
         rx_dropped,
+        rx_dropped_at_least,
         ..crate::NicCounters::default()
     })
 }
