@@ -236,11 +236,17 @@ mod time {
     struct Driver {
         /// Last raw 32-bit count and the wraps seen so far.
         extend: Mutex<Cell<(u32, u32)>>,
+        /// The extended count when the timer started: time is counted
+        /// from there, so the uptime starts at zero (issue 42 #8: QEMU's
+        /// timer reads 0 before its first reload, which the extension took
+        /// for a wrap, and every clock started at 171.8 s).
+        epoch: Mutex<Cell<u64>>,
         queue: Mutex<RefCell<Queue>>,
     }
 
     embassy_time_driver::time_driver_impl!(static DRIVER: Driver = Driver {
         extend: Mutex::new(Cell::new((0, 0))),
+        epoch: Mutex::new(Cell::new(NOT_STARTED)),
         queue: Mutex::new(RefCell::new(Queue::new())),
     });
 
@@ -253,6 +259,21 @@ mod time {
         syst.clear_current();
         syst.enable_interrupt();
         syst.enable_counter();
+        let epoch = raw64();
+        cortex_m::interrupt::free(|cs| DRIVER.epoch.borrow(cs).set(epoch));
+    }
+
+    /// The epoch before [`start`]: time reads 0 (a log line before the
+    /// timer runs is stamped 0, not with whatever the timer reads).
+    const NOT_STARTED: u64 = u64::MAX;
+
+    /// Timer counts since [`start`].
+    fn since_start() -> u64 {
+        let epoch = cortex_m::interrupt::free(|cs| DRIVER.epoch.borrow(cs).get());
+        if epoch == NOT_STARTED {
+            return 0;
+        }
+        raw64().wrapping_sub(epoch)
     }
 
     /// Counts up from 0 (the timer counts down from `u32::MAX`).
@@ -276,7 +297,7 @@ mod time {
     pub(super) fn on_tick() {
         // Also keeps the 64-bit extension fresh: the 32-bit count wraps
         // every 171 s, SysTick comes every 250 µs.
-        let now = raw64() / PER_TICK;
+        let now = since_start() / PER_TICK;
         cortex_m::interrupt::free(|cs| {
             DRIVER.queue.borrow(cs).borrow_mut().next_expiration(now);
         });
@@ -284,7 +305,7 @@ mod time {
 
     impl embassy_time_driver::Driver for Driver {
         fn now(&self) -> u64 {
-            raw64() / PER_TICK
+            since_start() / PER_TICK
         }
 
         fn schedule_wake(&self, at: u64, waker: &core::task::Waker) {

@@ -205,6 +205,27 @@ pub struct Ran {
     pub warm: (u64, u64),
 }
 
+/// Right after start-up the device's uptime must be small: an uptime that
+/// does not start at zero cannot show a restart (issue 42 #8: the QEMU
+/// board's clock started at 171.8 s). Start-up takes seconds; a minute is
+/// far above it and far below the 171.8 s of that fault.
+fn uptime_starts_at_zero(http: SocketAddr) -> Result<(), String> {
+    let url = format!("http://{http}/status.json");
+    let r = crate::robot::device_status::get(&url, Duration::from_secs(5))?;
+    let v: serde_json::Value =
+        serde_json::from_slice(&r.body).map_err(|e| format!("{url}: not JSON ({e})"))?;
+    let up = v["device"]["uptime_us"]
+        .as_u64()
+        .ok_or_else(|| format!("{url}: no device.uptime_us"))?;
+    if up > 60_000_000 {
+        return Err(format!(
+            "the device's uptime reads {:.1} s right after start-up: its clock does not start at zero, so the page cannot show a restart",
+            up as f64 / 1e6
+        ));
+    }
+    Ok(())
+}
+
 /// Waits for the device to start (its banner, then `ready`, each within
 /// its timeout), warms it up, drives it for `args.cycles`, takes one more
 /// counter line and stops it. Prints the device's log as it comes
@@ -235,6 +256,7 @@ pub fn drive(
     }
     if let Some(http) = http {
         println!("== the device's status page: http://{http}/ (for machines: /status.json, for Prometheus: /metrics)");
+        uptime_starts_at_zero(http)?;
     }
     let web = crate::diagnostics::Web::new(args, http)?;
     let mut opts = RobotOptions::new(setup.gsi.clone(), to);
@@ -266,6 +288,14 @@ pub fn drive(
     if args.warm_up > 0 {
         if let Some(first) = replay_first {
             opts.first_id = first.wrapping_sub(args.warm_up as u32);
+            if first < args.warm_up as u32 {
+                // Said, so the device's "wraps 1" is not taken for the
+                // capture's (issue 42 #8).
+                println!(
+                    "== the warm-up's {} Ids end just below the capture's first ({first}): they run through 4294967295 to 0, so the device counts one Id wrap (S3) that is the warm-up's, not the capture's",
+                    args.warm_up
+                );
+            }
         }
         let (first_id, sent, answered) = warm_up(&opts, &setup.device, args.warm_up)?;
         opts.first_id = first_id;

@@ -108,7 +108,7 @@ fn log_counters(s: &Snapshot) {
         None => ("n/a", hal_board::NicCounters::default()),
     };
     defmt::info!(
-        "counters: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | latency us max {} mean {} | fragments {} reassembled {} oversize {} unwanted {} malformed {} no-buffer {} duplicate {} timed-out {} evicted {} spoiled {} | controller-in {} controller-incomplete {} controller-dropped {} | nic {=str} rx {} rx-dropped {} status-full {} fifo-max {}",
+        "counters: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | engine latency (message in to reply ready; the page shows the driver's, frame to frame) us max {} mean {} | fragments {} reassembled {} oversize {} unwanted {} malformed {} no-buffer {} duplicate {} timed-out {} evicted {} spoiled {} | controller-in {} controller-incomplete {} controller-dropped {} | nic {=str} rx {} rx-dropped {} status-full {} fifo-max {}",
         st.received,
         st.answered,
         st.dropped_foreign,
