@@ -51,13 +51,30 @@ impl From<String> for Failure {
 
 impl Failure {
     /// Prints the failure and gives the exit status ([`LATE_ONLY`] or 1).
+    ///
+    /// A run whose every reply the firmware gave was right is not called
+    /// an error (issue 42 #17): what failed was the timing on this host,
+    /// and the firmware is judged by what it did.
     pub fn report(&self) -> std::process::ExitCode {
-        eprintln!("error: {}", self.reason);
+        for line in self.lines() {
+            eprintln!("{line}");
+        }
         if self.late_only {
-            eprintln!("every reply the firmware gave was right; only their timing failed, or frames were lost before the firmware (the host's: exit status {LATE_ONLY})");
             std::process::ExitCode::from(LATE_ONLY)
         } else {
             std::process::ExitCode::FAILURE
+        }
+    }
+
+    /// What [`Failure::report`] prints.
+    pub fn lines(&self) -> Vec<String> {
+        if self.late_only {
+            vec![
+                "the firmware: every reply it gave was right".into(),
+                format!("this host: {} (the host's timing, or frames lost before the firmware; exit status {LATE_ONLY}, not an error of the firmware)", self.reason),
+            ]
+        } else {
+            vec![format!("error: {}", self.reason)]
         }
     }
 }
@@ -205,6 +222,42 @@ pub struct Ran {
     pub warm: (u64, u64),
 }
 
+/// The host's own timer, measured before the counted run (issue 42 #17):
+/// 250 sleeps of one cycle, how far each overshot. On a busy or small
+/// machine the simulator's 4 ms sleep alone can overshoot by a cycle or
+/// more, and a late reply then is the host's. Said first, in one line,
+/// when the host cannot hold the cycle (p99 over a quarter of it, or the
+/// worst over a whole one); returns (p99, max) in µs.
+pub fn host_timer(cycle_ms: u32) -> (u64, u64) {
+    let cycle = Duration::from_millis(u64::from(cycle_ms.max(1)));
+    let mut over: Vec<u64> = (0..250)
+        .map(|_| {
+            let t = std::time::Instant::now();
+            std::thread::sleep(cycle);
+            (t.elapsed().saturating_sub(cycle)).as_micros() as u64
+        })
+        .collect();
+    over.sort_unstable();
+    let p99 = over[over.len() * 99 / 100];
+    let max = over[over.len() - 1];
+    println!("{}", timer_verdict(cycle_ms, p99, max));
+    (p99, max)
+}
+
+/// The line [`host_timer`] prints for a `p99` and `max` overshoot (µs).
+pub fn timer_verdict(cycle_ms: u32, p99: u64, max: u64) -> String {
+    let budget = u64::from(cycle_ms) * 1000;
+    if p99 > budget / 4 || max > budget {
+        format!(
+            "== THIS HOST CANNOT HOLD A {cycle_ms} ms CYCLE: its own {cycle_ms} ms sleep overshoots by {:.1} ms at p99 and {:.1} ms at worst, with no firmware involved; late replies below are the host's, and the firmware is judged by what it did (every message answered right, its own latency)",
+            p99 as f64 / 1000.0,
+            max as f64 / 1000.0
+        )
+    } else {
+        format!("== this host's {cycle_ms} ms timer: overshoot p99 {p99} us, max {max} us (it can hold the cycle)")
+    }
+}
+
 /// Right after start-up the device's uptime must be small: an uptime that
 /// does not start at zero cannot show a restart (issue 42 #8: the QEMU
 /// board's clock started at 171.8 s). Start-up takes seconds; a minute is
@@ -259,6 +312,7 @@ pub fn drive(
         uptime_starts_at_zero(http)?;
     }
     let web = crate::diagnostics::Web::new(args, http)?;
+    host_timer(4);
     let mut opts = RobotOptions::new(setup.gsi.clone(), to);
     opts.device = setup.device_name.clone();
     opts.cycles = args.cycles;
@@ -323,7 +377,7 @@ pub fn drive(
     }
     let during = web.start();
     let result = run(&opts, &setup.device, out);
-    let mut http_failures = web.finish(
+    let http_failures = web.finish(
         during,
         &setup.device.name,
         warm,
@@ -331,19 +385,12 @@ pub fn drive(
     );
     // One more counter line from the device.
     std::thread::sleep(Duration::from_millis(1100));
-    if args.serve {
-        if let Err(e) = crate::diagnostics::serve_until_ctrl_c(&mut *dev, http) {
-            http_failures.push(e);
-        }
-    }
     let figures = args.figures_from_status.then(|| {
         http.ok_or_else(|| "no diagnostics to read".to_string())
             .and_then(crate::diagnostics::figures_over_ethernet)
     });
     let stopped = dev.stopped();
-    let rest = dev.take_new();
-    let log = dev.stop();
-    for line in rest {
+    for line in dev.take_new() {
         println!("device: {line}");
     }
     let (mut summary, _) = result?;
@@ -352,16 +399,42 @@ pub fn drive(
     }
     let _ = summary.print(out);
     let _ = out.flush();
-    Ok(Ran {
+    let mut ran = Ran {
         summary,
-        log,
+        log: dev.log(),
         stopped,
         attacked: args.oversize_attack,
         http_attacked: args.http_attack,
         http_failures,
         figures,
         warm,
-    })
+    };
+    if args.serve {
+        serve(&mut *dev, http, &mut ran);
+    }
+    let rest = dev.take_new();
+    ran.log = dev.stop();
+    for line in rest {
+        println!("device: {line}");
+    }
+    Ok(ran)
+}
+
+/// `--serve`, once the counted run is over: its verdict first, then the
+/// device kept running until Ctrl-C (issue 42 #18: the verdict came only
+/// after Ctrl-C, which the terminal also sends to QEMU, and QEMU's exit
+/// then failed a run whose every reply was right). Ctrl-C is the user's
+/// stop, not the firmware's; the firmware stopping by itself while served
+/// is still a failure.
+fn serve(dev: &mut dyn Device, http: Option<SocketAddr>, ran: &mut Ran) {
+    println!("== the counted run's verdict (the device keeps running for --serve):");
+    if let Err(f) = verdict("the counted run", ran) {
+        eprintln!("error: {}", f.reason);
+    }
+    let _ = std::io::stdout().flush();
+    if let Err(e) = crate::diagnostics::serve_until_ctrl_c(dev, http) {
+        ran.stopped = Some(e);
+    }
 }
 
 /// The run's verdict, as `cargo demo` gives it: the firmware still running,
@@ -462,12 +535,32 @@ pub fn verdict(name: &str, ran: &Ran) -> Result<(), Failure> {
             );
             Ok(())
         }
-        Some(reason) => Err(Failure {
-            reason,
-            late_only: ran.summary.late_only()
-                || LossSplit::lost_before_firmware(&ran.summary, ran.warm, &ran.log),
-        }),
+        Some(reason) => {
+            let late_only = ran.summary.late_only()
+                || LossSplit::lost_before_firmware(&ran.summary, ran.warm, &ran.log);
+            // The firmware's own figure beside the host's (issue 42 #17).
+            let reason = match engine_latency(&ran.log).filter(|_| late_only) {
+                Some((max, mean)) => format!(
+                    "{reason}; the firmware's own latency (message in to reply ready, its clock): max {max} us, mean {mean} us"
+                ),
+                None => reason,
+            };
+            Err(Failure { reason, late_only })
+        }
     }
+}
+
+/// The engine's latency (max, mean µs) from the device's last counter line.
+fn engine_latency(log: &[String]) -> Option<(u64, u64)> {
+    let line = log.iter().rev().find(|l| l.contains(" counters: "))?;
+    let (_, rest) = line.split_once(" us max ")?;
+    let mut words = rest.split_whitespace();
+    let max = words.next()?.parse().ok()?;
+    let mean = match (words.next(), words.next()) {
+        (Some("mean"), Some(m)) => m.parse().ok()?,
+        _ => return None,
+    };
+    Some((max, mean))
 }
 
 /// The attack of S5's issue: two 9,000-byte datagrams to the device's
@@ -526,4 +619,45 @@ fn warm_up(
     }
     let sent = u32::try_from(s.sent).map_err(|_| "warm-up: too many messages")?;
     Ok((w.first_id.wrapping_add(sent), s.sent, s.answered))
+}
+
+#[cfg(test)]
+mod verdict_tests {
+    use super::*;
+
+    /// Issue 42 #17: the host measured in the issue (its 4 ms sleep 4 ms
+    /// late at p99, 15 ms at worst) is named as unable to hold the cycle.
+    #[test]
+    fn a_host_that_cannot_hold_the_cycle_is_said_so() {
+        assert!(
+            timer_verdict(4, 4_000, 15_000).starts_with("== THIS HOST CANNOT HOLD A 4 ms CYCLE")
+        );
+        assert!(timer_verdict(4, 300, 900).contains("it can hold the cycle"));
+    }
+
+    /// Issue 42 #17: every reply right and only the timing failed is not
+    /// called an error; a wrong reply is.
+    #[test]
+    fn late_only_is_not_an_error() {
+        let late = Failure {
+            reason: "supervision tripped".into(),
+            late_only: true,
+        };
+        assert!(late.lines().iter().all(|l| !l.starts_with("error")));
+        assert!(late.lines()[0].contains("every reply it gave was right"));
+        let wrong = Failure {
+            reason: "3 replies with a wrong Id (M8)".into(),
+            late_only: false,
+        };
+        assert!(wrong.lines()[0].starts_with("error: "));
+    }
+
+    #[test]
+    fn the_engines_latency_is_read_from_the_counter_line() {
+        let log = vec![
+            "[1.0 INFO ] counters: received 4 answered 4 | lost 0 | engine latency (message in to reply ready; the page shows the driver's, frame to frame) us max 912 mean 140 | fragments 0".to_string(),
+        ];
+        assert_eq!(engine_latency(&log), Some((912, 140)));
+        assert_eq!(engine_latency(&[]), None);
+    }
 }

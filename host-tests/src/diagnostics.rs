@@ -208,10 +208,17 @@ pub fn serve_until_ctrl_c(dev: &mut dyn Device, http: Option<SocketAddr>) -> Res
             println!("device: {line}");
         }
         if let Some(why) = dev.stopped() {
+            // The terminal sends Ctrl-C to QEMU too, which may exit before
+            // the flag is seen here: that is the user's stop.
+            std::thread::sleep(Duration::from_millis(300));
+            if stop.load(Ordering::Relaxed) {
+                break;
+            }
             return Err(format!("the firmware stopped while serving ({why})"));
         }
         std::thread::sleep(Duration::from_millis(200));
     }
+    println!("== Ctrl-C: the device stopped by the user");
     Ok(())
 }
 
