@@ -226,8 +226,9 @@ pub struct Ran {
 /// 250 sleeps of one cycle, how far each overshot. On a busy or small
 /// machine the simulator's 4 ms sleep alone can overshoot by a cycle or
 /// more, and a late reply then is the host's. Said first, in one line,
-/// when the host cannot hold the cycle (p99 over a quarter of it, or the
-/// worst over a whole one); returns (p99, max) in µs.
+/// when the host cannot hold the cycle (p99 over half of it, or the worst
+/// over two: supervision trips only on `MaxLost` late replies in a row,
+/// so a rare overshoot of a cycle is held); returns (p99, max) in µs.
 pub fn host_timer(cycle_ms: u32) -> (u64, u64) {
     let cycle = Duration::from_millis(u64::from(cycle_ms.max(1)));
     let mut over: Vec<u64> = (0..250)
@@ -247,7 +248,7 @@ pub fn host_timer(cycle_ms: u32) -> (u64, u64) {
 /// The line [`host_timer`] prints for a `p99` and `max` overshoot (µs).
 pub fn timer_verdict(cycle_ms: u32, p99: u64, max: u64) -> String {
     let budget = u64::from(cycle_ms) * 1000;
-    if p99 > budget / 4 || max > budget {
+    if p99 > budget / 2 || max > 2 * budget {
         format!(
             "== THIS HOST CANNOT HOLD A {cycle_ms} ms CYCLE: its own {cycle_ms} ms sleep overshoots by {:.1} ms at p99 and {:.1} ms at worst, with no firmware involved; late replies below are the host's, and the firmware is judged by what it did (every message answered right, its own latency)",
             p99 as f64 / 1000.0,
@@ -633,6 +634,9 @@ mod verdict_tests {
             timer_verdict(4, 4_000, 15_000).starts_with("== THIS HOST CANNOT HOLD A 4 ms CYCLE")
         );
         assert!(timer_verdict(4, 300, 900).contains("it can hold the cycle"));
+        // This machine, measured: p99 1.2 ms, worst 2.0 ms (300 of 300
+        // answered, 2 late, supervision never tripped).
+        assert!(timer_verdict(4, 1_200, 2_000).contains("it can hold the cycle"));
     }
 
     /// Issue 42 #17: every reply right and only the timing failed is not
