@@ -28,7 +28,7 @@
 //! record and logs again names the wrong cause and recurses until the
 //! core locks up, which only the watchdog ends, and nothing during
 //! `init`. So every handler writes the crash record before it logs, and
-//! the first handler to run claims [`claim`]: a panic or fault while one is
+//! the first handler to run claims the record ([`crate::reset::claim`]): a panic or fault while one is
 //! being handled (the logger's own panic among them) keeps the first
 //! record, logs nothing and resets at once.
 //!
@@ -42,17 +42,6 @@
 #![allow(unsafe_code)]
 
 use crate::reset::{Cause, Report};
-use core::sync::atomic::{AtomicBool, Ordering};
-
-/// Set by the first fault or panic handler to run.
-static HANDLING: AtomicBool = AtomicBool::new(false);
-
-/// Claims the handling of a fault or panic: `true` for the first handler
-/// to run, `false` when one is already being handled (then the caller
-/// keeps the first record, logs nothing and resets).
-pub(crate) fn claim() -> bool {
-    !HANDLING.swap(true, Ordering::SeqCst)
-}
 
 /// A value whose formatting executes an undefined instruction: a fault
 /// with the logger held (the self-test's third start).

@@ -379,8 +379,8 @@ pub(crate) fn reset() -> ! {
 fn panic(info: &core::panic::PanicInfo) -> ! {
     // A panic while a fault or panic is handled (the logger's own, when
     // that handler logs with the logger held): keep the first record,
-    // log nothing, reset (`crate::fault`).
-    if !crate::fault::claim() {
+    // log nothing, reset (`crate::fault`, `crate::reset::claim`).
+    if !crate::reset::claim() {
         reset()
     }
     if let Some(at) = info.location() {

@@ -256,6 +256,17 @@ impl CrashRecord {
     }
 }
 
+/// Set by the first fault or panic handler to run ([`claim`]).
+static HANDLING: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
+
+/// Claims the crash record for a fault or panic handler: `true` for the
+/// first handler to run, `false` when one is already being handled (then
+/// the caller keeps the first record, logs nothing and resets: a panic of
+/// the logger the first one logged through, `crate::fault`).
+pub fn claim() -> bool {
+    !HANDLING.swap(true, core::sync::atomic::Ordering::SeqCst)
+}
+
 /// The record in RAM, at the board's `__crash_record`.
 #[cfg(all(any(feature = "mps2-an500", feature = "stm32"), target_os = "none"))]
 pub(crate) mod ram {

@@ -187,7 +187,7 @@ mod on_target {
         // The record first, then the log (`crate::fault`): a fault inside
         // a log call cannot log, and a second fault or panic meanwhile
         // keeps this record.
-        if !crate::fault::claim() {
+        if !crate::reset::claim() {
             crate::board::reset()
         }
         if overflow {

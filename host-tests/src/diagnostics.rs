@@ -6,8 +6,9 @@
 //! run, [`crate::http_attack`]) and `--serve` (the device kept running
 //! until Ctrl-C).
 
-use crate::demo::{Device, RunArgs};
+use crate::device::Device;
 use crate::robot::report::Summary;
+use crate::run_args::RunArgs;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};

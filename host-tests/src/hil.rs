@@ -3,7 +3,7 @@
 //! per-message cycle counts, the in-guest codec comparison, the stack),
 //! and the HardFault check of `--fault`.
 
-use crate::demo::Device;
+use crate::device::Device;
 use crate::qemu_bench::{
     last_stack, parse_codec, stack_margin_percent, Record, Spread, MIN_STACK_MARGIN_PERCENT,
 };

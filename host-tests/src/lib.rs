@@ -21,6 +21,7 @@ pub mod boards;
 pub mod browser;
 pub mod counters;
 pub mod demo;
+pub mod device;
 pub mod diagnostics;
 pub mod differential;
 pub mod fuzzing;
@@ -35,6 +36,8 @@ pub mod rehost;
 pub mod replay;
 pub mod run_args;
 pub mod sensor;
+pub mod setup;
+pub mod verdict;
 
 /// The robot-controller simulator, a crate of its own (`rri-robot`) so
 /// that the firmware's build settings never rebuild it.

@@ -7,7 +7,7 @@
 //! minutes of two cores to build): it is run as the user installed it, or
 //! as `PROBE_RS` names it.
 
-use crate::demo::Device;
+use crate::device::Device;
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};

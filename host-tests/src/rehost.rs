@@ -314,7 +314,7 @@ pub fn run_engine(engine: &Path, board: &str, elf: &Path, args: &[String]) -> Re
 /// ports, its log read line by line as a probe run's is.
 pub struct Rehosted(crate::probe::ProbeRun);
 
-impl crate::demo::Device for Rehosted {
+impl crate::device::Device for Rehosted {
     fn wait_for(&mut self, needle: &str, timeout: std::time::Duration) -> Result<(), String> {
         self.0
             .wait_for(needle, timeout)

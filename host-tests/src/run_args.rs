@@ -1,9 +1,9 @@
 //! The simulator's side of a run, as `cargo demo` and `cargo hil` take it
 //! on their command lines ([`RunArgs`]).
 
-use crate::demo::Setup;
 use crate::robot::args::{plot_path, Properties, ShowArgs};
 use crate::robot::RobotOptions;
+use crate::setup::Setup;
 use std::path::PathBuf;
 
 /// The clap id of `--fault SPEC`, so a command whose own `--fault` means

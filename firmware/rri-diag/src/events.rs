@@ -4,9 +4,12 @@
 //! background's priority) writes them by comparing the snapshots the
 //! cycle publishes; the cycle never does.
 
-use super::status::{LinkInfo, ResetCause};
+// From the board, as status.rs names them (not through status.rs, which
+// holds an event log: no circle).
 use core::cell::Cell;
 use critical_section::Mutex;
+use hal_board::reset::Cause as ResetCause;
+use hal_board::LinkInfo;
 use rri_firmware::engine::{Endpoint, ErrorCode, Instant, SensorState};
 use rri_firmware::snapshot::Snapshot;
 

@@ -38,11 +38,10 @@
 use super::decode::{Decoded, Tally};
 use super::hand_over::{HandOver, Mark};
 use super::number::{
-    digit_count, is_xml_space, parse_f32, parse_f32_general, parse_time, parse_u32, plain_prefix,
+    digit_count, is_xml_space, parse_f32_general, parse_time, parse_u32, plain_prefix,
     MAX_NUMBER_LEN,
 };
-use crate::codec::decode::parse_bool;
-use crate::value::{RriString, Time, MAX_STRING_LEN};
+use crate::value::Time;
 
 /// A byte the compiled path takes inside element text: printable ASCII
 /// but `<` (the end of the text), `&` (a reference) and `>` (so a text
@@ -486,40 +485,13 @@ fn bump(counter: &mut u16) {
     *counter = counter.saturating_add(1);
 }
 
-/// A `real` in text or an attribute value (M5), as the general path reads it.
-#[inline(always)]
-pub fn real(text: &[u8]) -> Option<f32> {
-    parse_f32(text).ok()
-}
-
-/// A `time` (M5), as the general path reads it.
-#[inline(always)]
-pub fn time(text: &[u8]) -> Option<Time> {
-    parse_time(text).ok()
-}
-
-/// A `bool` (M7), as the general path reads it.
-#[inline(always)]
-pub fn boolean(text: &[u8]) -> Option<bool> {
-    parse_bool(text)
-}
-
-/// A `string` (M6) of at most 80 bytes; a longer one (cut and counted by
-/// the general path) is not taken here. The bytes are ASCII: the scans
-/// take no other.
-pub fn string(text: &[u8]) -> Option<RriString> {
-    if text.len() > MAX_STRING_LEN {
-        return None;
-    }
-    let mut s = RriString::new();
-    s.push_str(core::str::from_utf8(text).ok()?).ok()?;
-    Some(s)
-}
-
 #[path = "compiled_attrs.rs"]
 mod attrs;
 #[path = "compiled_bytes.rs"]
 mod bytes;
+#[path = "compiled_values.rs"]
+mod values;
+pub use values::{boolean, real, string, time};
 
 #[cfg(test)]
 #[path = "compiled_tests.rs"]

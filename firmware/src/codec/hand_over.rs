@@ -24,7 +24,7 @@
 //! `Id` and `Ts`, the fields seen and what was tolerated) and it resumes
 //! there instead of tokenizing the datagram from its start.
 
-use super::decode::Tally;
+use super::decode::error::Tally;
 use crate::value::Time;
 
 /// Reals kept: more than a robot message holds attribute reals in most

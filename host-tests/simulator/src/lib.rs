@@ -13,12 +13,15 @@
 pub mod args;
 pub mod device_status;
 pub mod fault;
+pub mod font;
+pub mod http_get;
 mod link;
 pub mod motion;
 pub mod numbers;
 mod options;
 pub mod pcap;
 pub mod plot;
+pub mod record;
 pub mod replay;
 pub mod report;
 pub mod show;
@@ -206,7 +209,9 @@ pub fn run(
     if let (Some(url), Some(before)) = (&opts.device_status, &device_before) {
         // The device's last turn is published before its reply leaves.
         match device_status::DeviceCounts::read(url) {
-            Ok(after) => s.device_status = Some(device_status::compare(&s, before, &after)),
+            Ok(after) => {
+                s.device_status = Some(device_status::compare(&s.counts(), before, &after))
+            }
             Err(e) => s.output_errors.push(format!("--device-status: {e}")),
         }
     }
@@ -243,7 +248,9 @@ fn replayed(
     let (mut s, cycles) = replay::run(opts, r, device, reply, log)?;
     if let (Some(url), Some(before)) = (&opts.device_status, &before) {
         match device_status::DeviceCounts::read(url) {
-            Ok(after) => s.device_status = Some(device_status::compare(&s, before, &after)),
+            Ok(after) => {
+                s.device_status = Some(device_status::compare(&s.counts(), before, &after))
+            }
             Err(e) => s.output_errors.push(format!("--device-status: {e}")),
         }
     }

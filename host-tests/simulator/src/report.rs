@@ -2,31 +2,10 @@
 //! and the CSV and JSON files; the plot is [`crate::plot`]'s, the capture
 //! [`crate::pcap`]'s.
 
+pub use crate::record::{Cycle, Injected, Latency, RunCounts};
 use serde::Serialize;
 use std::io::{self, Write};
 use std::path::Path;
-
-/// One robot message and what came back.
-#[derive(Clone, Debug, Default)]
-pub struct Cycle {
-    pub cycle: u64,
-    pub id: u32,
-    /// µs since the run started.
-    pub sent_us: u64,
-    pub reply_us: Option<u64>,
-    /// Not sent (a `drop` fault).
-    pub dropped_by_fault: bool,
-    /// Which `--send` property (position in the list; 0 by default).
-    pub property: usize,
-    /// With `--show`: the shown values of the reply that answered it.
-    pub shown: Option<crate::shown::Shown>,
-}
-
-impl Cycle {
-    pub fn latency_us(&self) -> Option<u64> {
-        self.reply_us.map(|r| r.saturating_sub(self.sent_us))
-    }
-}
 
 /// The end-of-run summary (also `--json`).
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
@@ -76,45 +55,7 @@ pub struct Summary {
     /// `--device-status`: the device's own counts beside these.
     pub device_status: Option<crate::device_status::Comparison>,
     /// `--replay`: every reply against the recorded one.
-    pub replay: Option<crate::replay::ReplayReport>,
-}
-
-/// Faults injected by `--fault`, by kind.
-#[derive(Clone, Debug, Default, Serialize, PartialEq, Eq)]
-pub struct Injected {
-    /// Messages not sent (their Ids skipped).
-    pub dropped: u64,
-    /// Messages sent twice.
-    pub duplicated: u64,
-    /// Messages held back and sent after the next one.
-    pub reordered: u64,
-    /// Garbage datagrams sent besides the messages.
-    pub garbage: u64,
-    /// 9,000-byte datagrams sent besides the messages.
-    pub oversize: u64,
-    /// Pauses in sending.
-    pub pauses: u64,
-    /// Messages sent from the second source port.
-    pub second_port: u64,
-}
-
-impl Injected {
-    fn is_empty(&self) -> bool {
-        *self == Injected::default()
-    }
-
-    /// Both counts together (what was injected and what was recorded).
-    pub fn plus(&self, o: &Injected) -> Injected {
-        Injected {
-            dropped: self.dropped + o.dropped,
-            duplicated: self.duplicated + o.duplicated,
-            reordered: self.reordered + o.reordered,
-            garbage: self.garbage + o.garbage,
-            oversize: self.oversize + o.oversize,
-            pauses: self.pauses + o.pauses,
-            second_port: self.second_port + o.second_port,
-        }
-    }
+    pub replay: Option<crate::replay::report::ReplayReport>,
 }
 
 /// One property's share of a run.
@@ -132,33 +73,19 @@ pub struct PropertyFigures {
     pub lost: u64,
 }
 
-#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
-pub struct Latency {
-    pub min: u64,
-    pub median: u64,
-    pub p99: u64,
-    pub p99_9: u64,
-    pub max: u64,
-}
-
-impl Latency {
-    pub fn of(mut samples: Vec<u64>) -> Latency {
-        if samples.is_empty() {
-            return Latency::default();
-        }
-        samples.sort_unstable();
-        let at = |q: f64| samples[(((samples.len() - 1) as f64) * q).round() as usize];
-        Latency {
-            min: samples[0],
-            median: at(0.5),
-            p99: at(0.99),
-            p99_9: at(0.999),
-            max: samples[samples.len() - 1],
+impl Summary {
+    /// What `--device-status` holds the device's counts against.
+    pub fn counts(&self) -> RunCounts {
+        RunCounts {
+            sent: self.sent,
+            answered: self.answered,
+            duplicate_replies: self.duplicate_replies,
+            injected: self.injected.clone(),
+            as_recorded: self.as_recorded.clone(),
+            tripped: self.supervision_tripped.is_some(),
         }
     }
-}
 
-impl Summary {
     /// Exit status 0 if and only if supervision never tripped and every
     /// reply was correct.
     pub fn passed(&self) -> bool {
@@ -212,7 +139,7 @@ impl Summary {
         }
         self.replay
             .as_ref()
-            .and_then(crate::replay::ReplayReport::failure)
+            .and_then(crate::replay::report::ReplayReport::failure)
     }
 
     pub fn print(&self, out: &mut dyn Write) -> io::Result<()> {

@@ -11,7 +11,7 @@
 //! shows every component. The reply is parsed a second time only when
 //! `--show` is given: without it the run's hot path is unchanged.
 
-use crate::report::Cycle;
+use crate::record::Cycle;
 pub use crate::shown::{Cell, Shown};
 use crate::wire::{self, Element};
 use gsi_config::{attribute_names, Device, Property, SimpleType, TypeRef};

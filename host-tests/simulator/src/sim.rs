@@ -4,7 +4,8 @@
 
 use crate::link::{Event, Link};
 use crate::pcap::Packet;
-use crate::report::{Cycle, Latency, PropertyFigures, Summary};
+use crate::record::{Cycle, Latency};
+use crate::report::{PropertyFigures, Summary};
 use crate::show::Show;
 use crate::RobotOptions;
 use gsi_config::{Device, Property};

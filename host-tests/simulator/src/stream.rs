@@ -5,7 +5,7 @@
 
 use crate::fault::Faults;
 use crate::motion::Motion;
-use crate::report::Cycle;
+use crate::record::Cycle;
 use crate::sim::{Sim, Waiting};
 use crate::wire;
 use gsi_config::{Device, Property};

@@ -26,7 +26,8 @@
 //! loop, so the layering costs no dispatch (`cargo codec-bench`).
 
 mod bind;
-mod error;
+mod declaration;
+pub(crate) mod error;
 mod events;
 
 pub use bind::parse_bool;

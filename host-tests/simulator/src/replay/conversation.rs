@@ -4,6 +4,7 @@
 //! messages in capture order.
 
 use super::capture::{Capture, Segment, Transport};
+use crate::wire;
 use std::collections::BTreeMap;
 use std::net::{Ipv4Addr, SocketAddrV4};
 
@@ -270,6 +271,16 @@ pub fn find(
         messages,
         untimed: untimed.first().map(|&f| (f, untimed.len())),
     })
+}
+
+/// A robot message's `Id` (its root's attribute), if it has one.
+pub fn message_id(bytes: &[u8]) -> Option<u32> {
+    let text = std::str::from_utf8(bytes).ok()?;
+    let root = wire::tree(text).ok()?;
+    root.attrs
+        .iter()
+        .find(|(k, _)| k == "Id")
+        .and_then(|(_, v)| v.trim().parse().ok())
 }
 
 #[cfg(test)]

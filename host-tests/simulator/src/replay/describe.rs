@@ -12,9 +12,9 @@
 //! capture that sees each packet twice), and pairing by Id alone would
 //! give a later message an earlier reply.
 
+use super::conversation::message_id;
 use super::conversation::{Conversation, Direction, Message};
-use super::message_id;
-use crate::report::Latency;
+use crate::record::Latency;
 use crate::wire;
 use serde::Serialize;
 use std::collections::HashMap;
@@ -23,7 +23,7 @@ use std::io::{self, Write};
 /// An Id this far behind the newest (16 cycles at 4 ms, or more) is a
 /// restart of the controller's numbering (a new run of the robot
 /// program), not a late arrival; so is one at or before the run's first.
-const RESTART_BEHIND: u32 = 16;
+pub const RESTART_BEHIND: u32 = 16;
 
 /// The recorded reply of each robot message (aligned with the robot
 /// messages in capture order): when it came and its bytes.

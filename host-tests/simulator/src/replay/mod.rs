@@ -15,13 +15,17 @@ pub mod capture;
 pub mod compare;
 pub mod conversation;
 pub mod describe;
-mod report;
+mod options;
+pub mod report;
 mod tcp;
 
+pub use conversation::message_id;
+pub use options::{Pace, ReplayOptions};
 pub use report::{Outcome, ReplayReport};
 
 use crate::link::Link;
-use crate::report::{Cycle, Injected, Summary};
+use crate::record::{Cycle, Injected};
+use crate::report::Summary;
 use crate::sim::{Sim, Waiting};
 use crate::{wire, RobotOptions};
 use conversation::{Conversation, Direction};
@@ -29,37 +33,8 @@ use describe::Description;
 use gsi_config::{Device, Property};
 use std::collections::HashMap;
 use std::io::Write;
-use std::net::SocketAddrV4;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
-
-/// When each recorded robot message goes out.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Pace {
-    /// At the recorded times (from the first message).
-    #[default]
-    Recorded,
-    /// One every this many ms.
-    Every(u32),
-    /// Each as soon as the reply to the last is in.
-    AsFast,
-}
-
-/// What `--replay` is asked to do.
-#[derive(Clone, Debug, Default)]
-pub struct ReplayOptions {
-    pub file: PathBuf,
-    /// `--conversation ADDR:PORT`: the device's end, when the file has
-    /// several conversations (or one on another port).
-    pub conversation: Option<SocketAddrV4>,
-    pub pace: Pace,
-    pub rules: compare::Rules,
-    /// `--extract DIR`: write the robot messages there, one file each, and
-    /// replay nothing.
-    pub extract: Option<PathBuf>,
-    /// `--diff FILE.csv`: every difference, one row each.
-    pub diff_csv: Option<PathBuf>,
-}
 
 /// The conversation `opts` names in its file, for `device`.
 pub fn load(r: &ReplayOptions, device: &Device) -> Result<Conversation, String> {
@@ -81,16 +56,6 @@ pub fn describe_file(
         reply.wire(),
         tick_ms(&conv, Pace::Recorded),
     ))
-}
-
-/// A robot message's `Id` (its root's attribute), if it has one.
-pub fn message_id(bytes: &[u8]) -> Option<u32> {
-    let text = std::str::from_utf8(bytes).ok()?;
-    let root = wire::tree(text).ok()?;
-    root.attrs
-        .iter()
-        .find(|(k, _)| k == "Id")
-        .and_then(|(_, v)| v.trim().parse().ok())
 }
 
 /// `--extract DIR`: every robot message of the conversation as a file,

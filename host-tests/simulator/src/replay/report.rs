@@ -5,8 +5,8 @@
 use super::compare::{compare, Difference};
 use super::conversation::{Conversation, Message};
 use super::describe::Description;
-use super::ReplayOptions;
-use crate::report::{Cycle, Latency};
+use super::options::ReplayOptions;
+use crate::record::{Cycle, Latency};
 use serde::Serialize;
 use std::collections::HashMap;
 use std::io::{self, Write};
@@ -280,7 +280,7 @@ impl ReplayReport {
     /// latency of every message, against its place in the capture.
     pub fn write_plot(&self, path: &Path) -> Result<(), String> {
         use plotters::prelude::*;
-        crate::plot::ensure_font()?;
+        crate::font::ensure_font()?;
         match path.extension().and_then(|x| x.to_str()) {
             Some("png") => self.draw(BitMapBackend::new(path, (1100, 500)).into_drawing_area()),
             _ => self.draw(SVGBackend::new(path, (1100, 500)).into_drawing_area()),

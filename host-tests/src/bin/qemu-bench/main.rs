@@ -26,6 +26,7 @@
 //! figure is more than 5 % above it or a reply was missed.
 
 mod layers;
+mod paths;
 mod report;
 mod run;
 mod scrape;

@@ -4,6 +4,7 @@
 //! ([`gate`]).
 
 use crate::layers::{self, Split};
+use crate::paths::{hostile_cost, hostile_counts, spreads};
 use crate::run::MIN_STACK_MARGIN_PERCENT;
 use crate::scraped::ScrapeFigures;
 
@@ -12,9 +13,7 @@ use crate::scraped::ScrapeFigures;
 /// rest of the cycle is the sensor's, the network's and flash wait
 /// states'. Gated quiet and while the diagnostics are read.
 const HOSTILE_BUDGET: u64 = 216_000;
-use crate::{
-    instructions, Args, Flooded, Measured, CYCLE_AT_216MHZ, INSTRUCTIONS_PER_COUNT, SHIFT,
-};
+use crate::{instructions, Args, Flooded, Measured, INSTRUCTIONS_PER_COUNT, SHIFT};
 use host_tests::qemu;
 use host_tests::qemu_bench::{Gated, Input, Record, Spread};
 use serde_json::json;
@@ -69,32 +68,6 @@ struct Figures {
     floor_split: Vec<Split>,
     /// The scrape run: the same figures while the diagnostics were read.
     scraped: Option<ScrapeFigures>,
-}
-
-/// Compute and full-path spreads over a simulator run and the realistic
-/// inputs, and the replies the device saw late (a full path past one
-/// cycle at 216 MHz).
-pub(crate) fn spreads(sim: &[Record], realistic: &[(Input, Vec<Record>)]) -> (Spread, Spread, u64) {
-    let mut compute: Vec<u64> = sim.iter().map(|r| instructions(r.compute)).collect();
-    for (_, rows) in realistic {
-        compute.extend(rows.iter().map(|r| instructions(r.compute)));
-    }
-    let full = full_paths(sim, realistic);
-    let late = sim
-        .iter()
-        .filter(|r| r.answered && instructions(r.full) > CYCLE_AT_216MHZ)
-        .count() as u64;
-    (Spread::of(compute), Spread::of(full), late)
-}
-
-/// Every answered message's full path, in instructions.
-pub(crate) fn full_paths(sim: &[Record], realistic: &[(Input, Vec<Record>)]) -> Vec<u64> {
-    let answered = |r: &&Record| r.answered;
-    sim.iter()
-        .chain(realistic.iter().flat_map(|(_, rows)| rows.iter()))
-        .filter(answered)
-        .map(|r| instructions(r.full))
-        .collect()
 }
 
 impl Figures {
@@ -187,24 +160,6 @@ impl Figures {
             full_median: self.full.median,
             hostile_max: self.hostile_max,
         }
-    }
-}
-
-/// A hostile input's cost: the longer of its compute and full paths where
-/// it was answered, its compute path where it was rejected.
-pub(crate) fn hostile_cost(rows: &[Record]) -> u64 {
-    rows.iter()
-        .map(|r| instructions(hostile_counts(r)))
-        .max()
-        .unwrap_or(0)
-}
-
-/// One row's hostile cost, in counts.
-fn hostile_counts(r: &Record) -> u32 {
-    if r.answered {
-        r.full.max(r.compute)
-    } else {
-        r.compute
     }
 }
 

@@ -2,7 +2,7 @@
 //! while a client reads the diagnostics), printed beside the same build's
 //! quiet ones and gated: the service never at the cycle's expense.
 
-use crate::report::{full_paths, hostile_cost, spreads};
+use crate::paths::{full_paths, hostile_cost, spreads};
 use crate::Phase;
 use host_tests::qemu_bench::Spread;
 
