@@ -220,17 +220,34 @@ fn a_request_is_answered_whole_and_the_connection_closed() {
 
 #[test]
 fn a_client_that_half_closes_after_its_request_is_still_answered() {
-    let (out, _) = with_service(
-        |stack| async move { exchange(stack, b"GET /metrics HTTP/1.1\r\n\r\n", true).await },
-        30_000,
-    );
-    let response = out.expect("finished").expect("answered");
-    assert_eq!(
-        status_of(&response),
-        Some(200),
-        "{}",
-        String::from_utf8_lossy(&response)
-    );
+    // Issue 42 #10: every byte of the body, not the status line only (the
+    // device closed, saw the client's FIN at once and aborted, dropping the
+    // tail its socket still held).
+    for path in ["/metrics", "/status.json", "/"] {
+        let request = format!("GET {path} HTTP/1.0\r\n\r\n");
+        let (out, _) = with_service(
+            move |stack| async move { exchange(stack, request.as_bytes(), true).await },
+            30_000,
+        );
+        let response = out.expect("finished").expect("answered");
+        let text = String::from_utf8_lossy(&response);
+        assert_eq!(status_of(&response), Some(200), "{path}: {text}");
+        let split = response
+            .windows(4)
+            .position(|w| w == b"\r\n\r\n")
+            .expect("a head");
+        let head = String::from_utf8_lossy(&response[..split]);
+        let length: usize = head
+            .lines()
+            .find_map(|l| l.strip_prefix("Content-Length: "))
+            .and_then(|v| v.trim().parse().ok())
+            .expect("a Content-Length");
+        assert_eq!(
+            response.len() - split - 4,
+            length,
+            "{path}: the body as long as its Content-Length"
+        );
+    }
 }
 
 #[test]

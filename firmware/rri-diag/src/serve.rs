@@ -262,9 +262,19 @@ pub async fn connection(
         let ended = serve_connection(&mut socket, slot, half, cycle).await;
         if ended.served {
             bump(&stats.responses);
-            // Our FIN after the response; the client's in return.
+            // Our FIN after the response; the client's in return. What the
+            // socket still holds (the response's tail and our FIN) is
+            // acknowledged before the socket is let go (issue 42 #10): a
+            // client that half-closed after its request has sent its FIN
+            // already, so the wait for it ended at once, and the abort
+            // below dropped the unsent tail (a body shorter than its
+            // Content-Length, then a reset).
             socket.close();
-            let _ = with_timeout(CLOSE_TIMEOUT, closed(&mut socket)).await;
+            let _ = with_timeout(CLOSE_TIMEOUT, async {
+                let _ = socket.flush().await;
+                closed(&mut socket).await
+            })
+            .await;
         } else {
             bump(&stats.aborted);
             slot.gone.signal(());

@@ -176,7 +176,20 @@ impl Description {
             .iter()
             .filter(|m| m.direction == Direction::ToDevice)
             .collect();
-        let (paired, to_nothing) = pair(conv, &robot, reply_root);
+        let pairing = pair(conv, &robot, reply_root);
+        Description::of_paired(conv, &robot, &pairing, reply_root, cycle_ms)
+    }
+
+    /// [`Description::of`] for a conversation already paired: `robot` its
+    /// robot messages in order, `pairing` what [`pair`] made of them.
+    pub fn of_paired(
+        conv: &Conversation,
+        robot: &[&Message],
+        pairing: &(Paired, usize),
+        reply_root: &str,
+        cycle_ms: u32,
+    ) -> Description {
+        let (paired, to_nothing) = (&pairing.0, pairing.1);
         let ids: Vec<Option<u32>> = robot.iter().map(|m| message_id(&m.payload)).collect();
         let malformed_packets: Vec<usize> = robot
             .iter()
@@ -192,7 +205,7 @@ impl Description {
         gaps.sort_unstable();
         let mut latency = Vec::new();
         let mut late = 0;
-        for (m, p) in robot.iter().zip(&paired) {
+        for (m, p) in robot.iter().zip(paired) {
             if let Some((at, _)) = p {
                 let us = at.saturating_sub(m.at_us);
                 late += usize::from(us > u64::from(cycle_ms) * 1000);
@@ -233,7 +246,7 @@ impl Description {
             to_nothing,
             unanswered: ids
                 .iter()
-                .zip(&paired)
+                .zip(paired)
                 .filter(|(id, p)| id.is_some() && p.is_none())
                 .count(),
             late,

@@ -134,9 +134,10 @@ pub fn run(
     let sent_property = robot_property(device, &robot).ok_or(
         "the configuration has no property the controller sends (Flag WriteOnly or ReadWrite)",
     )?;
-    let (recorded, _) = describe::pair(&conv, &robot, reply.wire());
+    let pairing = describe::pair(&conv, &robot, reply.wire());
     let tick = tick_ms(&conv, r.pace);
-    let description = Description::of(&conv, reply.wire(), tick);
+    let description = Description::of_paired(&conv, &robot, &pairing, reply.wire(), tick);
+    let recorded = pairing.0;
     let mut opts = opts.clone();
     opts.tcp = conv.tcp;
     opts.cycles = robot.len() as u64;
