@@ -251,69 +251,65 @@ pub fn read(path: &Path) -> Result<Capture, String> {
     Ok(out)
 }
 
-/// The IPv4 packet a frame carries, by its link type; `Err` with the link
-/// type when this reader does not take it.
-fn slice<'a>(link: Linktype, data: &'a [u8]) -> Result<Option<SlicedPacket<'a>>, i32> {
-    let sliced = match link {
-        Linktype::ETHERNET => SlicedPacket::from_ethernet(data),
-        // Linux cooked captures (`-i any`, and loopback on some systems):
-        // the protocol is an EtherType whatever the device type (etherparse
-        // takes it only for a few; a loopback's, ARPHRD 772, not).
-        // SLL: 16 bytes, the protocol last; SLL2: 20 bytes, the protocol
-        // first.
-        Linktype::LINUX_SLL => cooked(data, 14, 16),
-        Linktype::LINUX_SLL2 => cooked(data, 0, 20),
-        Linktype::RAW | Linktype::IPV4 => SlicedPacket::from_ip(data),
-        Linktype::NULL | Linktype::LOOP => {
-            // BSD loopback: a 4-byte address family (2: IPv4) in the
-            // capturing host's order (NULL) or big-endian (LOOP).
-            match (data.get(..4), data.get(4..)) {
-                (Some(family), Some(rest)) if family.contains(&2) => SlicedPacket::from_ip(rest),
-                _ => return Ok(None),
-            }
-        }
-        other => return Err(other.0),
-    };
-    Ok(sliced.ok())
+/// Where a frame's packet starts, by the link type: what the strict and
+/// the lenient slicing both read it from.
+enum Framing<'a> {
+    Ethernet(&'a [u8]),
+    /// An EtherType and the packet after the link header.
+    EtherType(u16, &'a [u8]),
+    /// The IP packet itself.
+    Ip(&'a [u8]),
 }
 
-/// A Linux cooked frame: its protocol (an EtherType) at `proto`, the
-/// packet from `payload` on.
-fn cooked(
-    data: &[u8],
-    proto: usize,
-    payload: usize,
-) -> Result<SlicedPacket<'_>, etherparse::err::packet::SliceError> {
-    let ty = data
-        .get(proto..proto + 2)
-        .map_or(0, |b| u16::from_be_bytes([b[0], b[1]]));
-    SlicedPacket::from_ether_type(EtherType(ty), data.get(payload..).unwrap_or(&[]))
+/// The frame's [`Framing`]; `Ok(None)` when it carries no IPv4 (or is
+/// shorter than its link header), `Err` with the link type when this
+/// reader does not take it.
+fn framing(link: Linktype, data: &[u8]) -> Result<Option<Framing<'_>>, i32> {
+    // Linux cooked captures (`-i any`, and loopback on some systems): the
+    // protocol is an EtherType whatever the device type (etherparse takes
+    // it only for a few; a loopback's, ARPHRD 772, not). SLL: 16 bytes,
+    // the protocol last; SLL2: 20 bytes, the protocol first.
+    let cooked = |proto: usize, payload: usize| {
+        let ty = data
+            .get(proto..proto + 2)
+            .map_or(0, |b| u16::from_be_bytes([b[0], b[1]]));
+        data.get(payload..).map(|rest| Framing::EtherType(ty, rest))
+    };
+    Ok(match link {
+        Linktype::ETHERNET => Some(Framing::Ethernet(data)),
+        Linktype::LINUX_SLL => cooked(14, 16),
+        Linktype::LINUX_SLL2 => cooked(0, 20),
+        Linktype::RAW | Linktype::IPV4 => Some(Framing::Ip(data)),
+        // BSD loopback: a 4-byte address family (2: IPv4) in the capturing
+        // host's order (NULL) or big-endian (LOOP).
+        Linktype::NULL | Linktype::LOOP => match (data.get(..4), data.get(4..)) {
+            (Some(family), Some(rest)) if family.contains(&2) => Some(Framing::Ip(rest)),
+            _ => None,
+        },
+        other => return Err(other.0),
+    })
+}
+
+/// The IPv4 packet a frame carries, sliced strictly; `Err` with the link
+/// type when this reader does not take it.
+fn slice(link: Linktype, data: &[u8]) -> Result<Option<SlicedPacket<'_>>, i32> {
+    Ok(framing(link, data)?.and_then(|f| {
+        match f {
+            Framing::Ethernet(d) => SlicedPacket::from_ethernet(d),
+            Framing::EtherType(ty, d) => SlicedPacket::from_ether_type(EtherType(ty), d),
+            Framing::Ip(d) => SlicedPacket::from_ip(d),
+        }
+        .ok()
+    }))
 }
 
 /// The frame read leniently (lengths that say more than the file holds are
 /// allowed), to tell a packet cut by the snapshot length and its ends.
 fn lax(link: Linktype, data: &[u8]) -> Option<LaxSlicedPacket<'_>> {
-    let cooked = |proto: usize, payload: usize| {
-        let ty = data
-            .get(proto..proto + 2)
-            .map_or(0, |b| u16::from_be_bytes([b[0], b[1]]));
-        Some(LaxSlicedPacket::from_ether_type(
-            EtherType(ty),
-            data.get(payload..)?,
-        ))
-    };
-    match link {
-        Linktype::ETHERNET => LaxSlicedPacket::from_ethernet(data).ok(),
-        Linktype::LINUX_SLL => cooked(14, 16),
-        Linktype::LINUX_SLL2 => cooked(0, 20),
-        Linktype::RAW | Linktype::IPV4 => LaxSlicedPacket::from_ip(data).ok(),
-        Linktype::NULL | Linktype::LOOP => match (data.get(..4), data.get(4..)) {
-            (Some(family), Some(rest)) if family.contains(&2) => {
-                LaxSlicedPacket::from_ip(rest).ok()
-            }
-            _ => None,
-        },
-        _ => None,
+    match framing(link, data).ok()?? {
+        Framing::Ethernet(d) => LaxSlicedPacket::from_ethernet(d).ok(),
+        Framing::EtherType(ty, d) => Some(LaxSlicedPacket::from_ether_type(EtherType(ty), d)),
+        Framing::Ip(d) => LaxSlicedPacket::from_ip(d).ok(),
     }
 }
 
