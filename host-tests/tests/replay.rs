@@ -140,6 +140,23 @@ fn the_simulators_own_pcap_and_pcapng_replay_with_no_difference() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `packets` written as a pcap by the simulator's writer and replayed over
+/// UDP against the host sensor, comparing Ids, acceptance and timing only.
+fn replay_written(name: &str, packets: &[Packet]) -> robot::report::Summary {
+    let file = std::env::temp_dir().join(format!("rri-{name}-{}.pcap", std::process::id()));
+    write_pcap(&file, packets, 1_700_000_000_000_000, false).unwrap();
+    let s = replay(
+        file.clone(),
+        Rules {
+            ignore_values: true,
+            ..Rules::default()
+        },
+        false,
+    );
+    let _ = std::fs::remove_file(&file);
+    s
+}
+
 /// The manual's robot message with Id `id` and Ts `ts`.
 fn with_id(id: u32, ts: &str) -> String {
     let good =
@@ -199,17 +216,7 @@ fn two_runs_in_one_capture_with_garbage_and_a_gap_pair_each_message_with_its_own
             }
         }
     }
-    let file = std::env::temp_dir().join(format!("rri-two-runs-{}.pcap", std::process::id()));
-    write_pcap(&file, &packets, 1_700_000_000_000_000, false).unwrap();
-    let s = replay(
-        file.clone(),
-        Rules {
-            ignore_values: true,
-            ..Rules::default()
-        },
-        false,
-    );
-    let _ = std::fs::remove_file(&file);
+    let s = replay_written("two-runs", &packets);
     let r = s.replay.as_ref().unwrap();
     assert_eq!(s.failure(), None, "{s:?}");
     assert_eq!((r.messages, r.same, r.malformed), (297, 297, 6), "{r:?}");
@@ -250,17 +257,7 @@ fn a_message_answered_in_the_capture_and_refused_now_is_the_headline_with_the_de
             payload: reply(id).into_bytes(),
         });
     }
-    let file = std::env::temp_dir().join(format!("rri-refused-{}.pcap", std::process::id()));
-    write_pcap(&file, &packets, 1_700_000_000_000_000, false).unwrap();
-    let mut s = replay(
-        file.clone(),
-        Rules {
-            ignore_values: true,
-            ..Rules::default()
-        },
-        false,
-    );
-    let _ = std::fs::remove_file(&file);
+    let mut s = replay_written("refused", &packets);
     let r = s.replay.as_mut().unwrap();
     assert_eq!((r.same, r.not_answered), (2, 1), "{r:?}");
     host_tests::replay::explain(r);

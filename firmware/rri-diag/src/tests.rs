@@ -137,6 +137,12 @@ fn status() -> Status {
 }
 
 fn response(route: Route, gzip: bool) -> (String, Vec<u8>) {
+    response_to(route, gzip, &status())
+}
+
+/// The response to `route` for `status`: its head and body, the body as
+/// long as its `Content-Length`.
+fn response_to(route: Route, gzip: bool, status: &Status) -> (String, Vec<u8>) {
     let mut out = All(Vec::new());
     respond(
         &mut out,
@@ -146,7 +152,7 @@ fn response(route: Route, gzip: bool) -> (String, Vec<u8>) {
             gzip,
         },
         &identity(),
-        &status(),
+        status,
     );
     let split = out.0.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
     let head = String::from_utf8(out.0[..split].to_vec()).unwrap();
@@ -254,21 +260,7 @@ fn counters_past_two_to_the_32_go_on_in_every_form() {
     h.record(600);
     h.record(300);
     st.latency.histogram = h;
-    let body = |route| {
-        let mut out = All(Vec::new());
-        respond(
-            &mut out,
-            Request {
-                route,
-                head_only: false,
-                gzip: false,
-            },
-            &identity(),
-            &st,
-        );
-        let split = out.0.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
-        String::from_utf8(out.0[split + 4..].to_vec()).unwrap()
-    };
+    let body = |route| String::from_utf8(response_to(route, false, &st).1).unwrap();
     let metrics = body(Route::Metrics);
     assert!(
         metrics.contains("rri_messages_total{outcome=\"received\"} 4294967301\n"),
