@@ -15,6 +15,11 @@ pub struct DeviceCounters {
     pub invalid: u64,
     pub throttled: u64,
     pub decode: u64,
+    /// The engine's reply latency (message in to reply ready), µs: the
+    /// longest and the mean. The page and `/metrics` show the driver's
+    /// (frame to frame), which also holds the network's own time.
+    pub latency_max_us: u64,
+    pub latency_mean_us: u64,
     pub fragments: Fragments,
     /// The network chip's receive counters; `None` where the board does
     /// not read them (`nic n/a`).
@@ -53,45 +58,48 @@ pub struct Nic {
 }
 
 impl DeviceCounters {
-    /// `[…] counters: received R answered A dropped foreign F invalid-source I throttled T decode D | … | fragments … | controller-in … | nic read rx …`.
+    /// `[…] counters: messages: received R answered A | dropped: foreign F
+    /// invalid_source I throttled T decode D | … | engine latency (…) us:
+    /// max M mean N | fragments: … | controller: in C … | nic read:
+    /// rx_frames X …` (`firmware/rri-sensor/src/housekeeping.rs`): groups
+    /// of `family: key value …`, named as on the page and in `/metrics`.
     pub fn parse(line: &str) -> Option<DeviceCounters> {
         let (_, rest) = line.split_once("] counters: ")?;
-        let words: Vec<&str> = rest.split_whitespace().collect();
-        let word = |key: &str| -> Option<&str> {
-            let i = words.iter().position(|w| *w == key)?;
-            words.get(i + 1).copied()
-        };
-        let after = |key: &str| -> Option<u64> { word(key)?.parse().ok() };
-        let nic = match word("nic")? {
-            "read" => Some(Nic {
-                rx_frames: after("rx")?,
-                rx_dropped: after("rx-dropped")?,
-                status_full: after("status-full")?,
-                fifo_max: after("fifo-max")?,
+        let groups = CounterLine::of(rest);
+        let get = |family: &str, key: &str| groups.get(family, key);
+        let nic = match groups.head("nic")? {
+            "nic read" => Some(Nic {
+                rx_frames: get("nic", "rx_frames")?,
+                rx_dropped: get("nic", "rx_dropped")?,
+                status_full: get("nic", "status_full")?,
+                fifo_max: get("nic", "fifo_max")?,
             }),
             _ => None,
         };
+        let f = |key: &str| get("fragments", key);
         Some(DeviceCounters {
-            received: after("received")?,
-            answered: after("answered")?,
-            foreign: after("foreign")?,
-            invalid: after("invalid-source")?,
-            throttled: after("throttled")?,
-            decode: after("decode")?,
+            received: get("messages", "received")?,
+            answered: get("messages", "answered")?,
+            foreign: get("dropped", "foreign")?,
+            invalid: get("dropped", "invalid_source")?,
+            throttled: get("dropped", "throttled")?,
+            decode: get("dropped", "decode")?,
+            latency_max_us: get("engine", "max")?,
+            latency_mean_us: get("engine", "mean")?,
             fragments: Fragments {
-                fragments: after("fragments")?,
-                reassembled: after("reassembled")?,
-                oversize: after("oversize")?,
-                unwanted: after("unwanted")?,
-                malformed: after("malformed")?,
-                no_buffer: after("no-buffer")?,
-                duplicate: after("duplicate")?,
-                timed_out: after("timed-out")?,
-                evicted: after("evicted")?,
-                spoiled: after("spoiled")?,
-                controller_in: after("controller-in")?,
-                controller_incomplete: after("controller-incomplete")?,
-                controller_dropped: after("controller-dropped")?,
+                fragments: f("fragments")?,
+                reassembled: f("reassembled")?,
+                oversize: f("oversize")?,
+                unwanted: f("unwanted")?,
+                malformed: f("malformed")?,
+                no_buffer: f("no_buffer")?,
+                duplicate: f("duplicate")?,
+                timed_out: f("timed_out")?,
+                evicted: f("evicted")?,
+                spoiled: f("spoiled")?,
+                controller_in: get("controller", "in")?,
+                controller_incomplete: get("controller", "incomplete")?,
+                controller_dropped: get("controller", "dropped")?,
             },
             nic,
         })
@@ -119,6 +127,59 @@ impl DeviceCounters {
             }
             std::thread::sleep(Duration::from_millis(50));
         }
+    }
+}
+
+/// A counter line split into its groups: `family: key value key value`
+/// between ` | ` (a group's head may say more after its family's name:
+/// `nic read`, `engine latency (…) us`).
+pub struct CounterLine<'a> {
+    groups: Vec<(&'a str, Vec<(&'a str, &'a str)>)>,
+}
+
+impl<'a> CounterLine<'a> {
+    /// The groups of `text` (the line after `counters: `).
+    pub fn of(text: &'a str) -> CounterLine<'a> {
+        let groups = text
+            .split(" | ")
+            .filter_map(|g| {
+                let (head, body) = g.trim().split_once(':')?;
+                let words: Vec<&str> = body.split_whitespace().collect();
+                let pairs = words
+                    .chunks(2)
+                    .filter_map(|p| Some((*p.first()?, *p.get(1)?)));
+                Some((head, pairs.collect()))
+            })
+            .collect();
+        CounterLine { groups }
+    }
+
+    /// The whole head of the group of `family` (its first word).
+    pub fn head(&self, family: &str) -> Option<&'a str> {
+        self.groups
+            .iter()
+            .find(|(h, _)| h.split_whitespace().next() == Some(family))
+            .map(|(h, _)| *h)
+    }
+
+    /// `key`'s value in the group of `family`.
+    pub fn get(&self, family: &str, key: &str) -> Option<u64> {
+        let (_, pairs) = self
+            .groups
+            .iter()
+            .find(|(h, _)| h.split_whitespace().next() == Some(family))?;
+        pairs.iter().find(|(k, _)| *k == key)?.1.parse().ok()
+    }
+
+    /// Every `(family, key)` in the line's order.
+    pub fn keys(&self) -> Vec<(&'a str, &'a str)> {
+        self.groups
+            .iter()
+            .flat_map(|(h, pairs)| {
+                let family = h.split_whitespace().next().unwrap_or("");
+                pairs.iter().map(move |(k, _)| (family, *k))
+            })
+            .collect()
     }
 }
 
@@ -153,7 +214,7 @@ impl LossSplit {
         // A robot message the engine answered reached it, though the guard
         // counts a controller's datagram only once the cycle has told it
         // the controller's port: the first from a new port (a controller
-        // that reconnected) is answered without counting in `controller-in`.
+        // that reconnected) is answered without counting in `controller: in`.
         let reached = d.fragments.controller_in.max(d.answered);
         let reassembly = d.fragments.controller_dropped;
         LossSplit {
@@ -243,7 +304,44 @@ impl LossSplit {
 mod counter_tests {
     use super::*;
 
-    const LINE: &str = "[    3.0 INFO ] counters: received 11 answered 6 dropped foreign 1 invalid-source 1 throttled 1 decode 2 | send-errors 0 stalled 0 | lost 0 dup 0 reordered 0 timeouts 0 | latency us max 900 mean 500 | fragments 30 reassembled 8 oversize 10 unwanted 1 malformed 2 no-buffer 3 duplicate 0 timed-out 4 evicted 5 spoiled 2 | controller-in 9 controller-incomplete 1 controller-dropped 1 | nic read rx 120 rx-dropped 7 status-full 1 fifo-max 4560";
+    /// Issue 42 #8: the device's log names every counter as the page,
+    /// `/status.json` and `/metrics` do (`rri_diag::counters::FAMILIES`,
+    /// which says what each counts). Read from the firmware's source: the
+    /// line as the boards log it, its values filled in.
+    #[test]
+    fn the_log_names_every_counter_as_the_page_and_metrics_do() {
+        let src = include_str!("../../firmware/rri-sensor/src/housekeeping.rs");
+        let start = src.find("\"counters: ").expect("the counter line's format") + 1;
+        let len = src[start..].find('"').expect("its end");
+        let format = &src[start..start + len];
+        let line = format!(
+            "[ 1.0 INFO ] {}",
+            format.replace("{=str}", "read").replace("{}", "7")
+        );
+        let groups = CounterLine::of(line.split_once("counters: ").expect("prefix").1);
+        let keys = groups.keys();
+        assert!(keys.len() > 30, "{keys:?}");
+        for (family, key) in keys {
+            let known = match family {
+                "engine" => ["max", "mean"].contains(&key),
+                "nic" => ["rx_frames", "rx_dropped", "status_full", "fifo_max"].contains(&key),
+                _ => rri_diag::counters::FAMILIES
+                    .iter()
+                    .any(|f| f.key == family && f.members.iter().any(|m| m.key == key)),
+            };
+            assert!(
+                known,
+                "the log's `{family}: {key}` is no counter of the page's"
+            );
+        }
+        let d = DeviceCounters::parse(&line).expect("the firmware's line parses");
+        assert_eq!(
+            (d.received, d.latency_max_us, d.fragments.controller_in),
+            (7, 7, 7)
+        );
+    }
+
+    const LINE: &str = "[    3.0 INFO ] counters: messages: received 11 answered 6 | dropped: foreign 1 invalid_source 1 throttled 1 decode 2 | transport: send_errors 0 tcp_stalled 0 | ids: lost 0 duplicates 0 reordered 0 | supervision: timeouts 0 | engine latency (message in to reply ready; the page and /metrics show the driver's, frame to frame) us: max 900 mean 500 | fragments: fragments 30 reassembled 8 oversize 10 unwanted 1 malformed 2 no_buffer 3 duplicate 0 timed_out 4 evicted 5 spoiled 2 | controller: in 9 incomplete 1 dropped 1 | nic read: rx_frames 120 rx_dropped 7 status_full 1 fifo_max 4560";
 
     /// CI's run of 2026-11-27: a 100 ms host stall during `cargo demo --
     /// --http-attack --fault drop:1 --fault garbage:1` lost 14 messages
@@ -253,7 +351,7 @@ mod counter_tests {
     /// again.
     #[test]
     fn a_counted_runs_split_leaves_out_the_warm_up_and_the_garbage() {
-        let line = "[  188.816886 INFO ] counters: received 3221 answered 3205 dropped foreign 0 invalid-source 0 throttled 0 decode 16 | send-errors 0 stalled 0 | lost 45 dup 0 reordered 0 timeouts 1 | latency us max 8840 mean 147 | fragments 0 reassembled 0 oversize 0 unwanted 0 malformed 0 no-buffer 0 duplicate 0 timed-out 0 evicted 0 spoiled 0 | controller-in 3220 controller-incomplete 0 controller-dropped 0 | nic read rx 5201 rx-dropped 0 status-full 0 fifo-max 10288";
+        let line = "[  188.816886 INFO ] counters: messages: received 3221 answered 3205 | dropped: foreign 0 invalid_source 0 throttled 0 decode 16 | transport: send_errors 0 tcp_stalled 0 | ids: lost 45 duplicates 0 reordered 0 | supervision: timeouts 1 | engine latency (message in to reply ready; the page and /metrics show the driver's, frame to frame) us: max 8840 mean 147 | fragments: fragments 0 reassembled 0 oversize 0 unwanted 0 malformed 0 no_buffer 0 duplicate 0 timed_out 0 evicted 0 spoiled 0 | controller: in 3220 incomplete 0 dropped 0 | nic read: rx_frames 5201 rx_dropped 0 status_full 0 fifo_max 10288";
         let d = DeviceCounters::parse(line).expect("a counter line");
         let s = LossSplit::of_counted_run((2969, 2955), (250, 250), 16, d);
         assert_eq!((s.nic, s.reassembly, s.engine, s.way_back), (14, 0, 0, 0));
@@ -268,7 +366,7 @@ mod counter_tests {
     #[test]
     fn losses_before_the_firmware_alone_are_the_hosts() {
         let line = |controller_in: u64, answered: u64| {
-            format!("[  183.8 INFO ] counters: received {controller_in} answered {answered} dropped foreign 0 invalid-source 0 throttled 0 decode 0 | send-errors 0 stalled 0 | lost 56 dup 0 reordered 0 timeouts 0 | latency us max 10693 mean 124 | fragments 0 reassembled 0 oversize 0 unwanted 0 malformed 0 no-buffer 0 duplicate 0 timed-out 0 evicted 0 spoiled 0 | controller-in {controller_in} controller-incomplete 0 controller-dropped 0 | nic read rx 2900 rx-dropped 0 status-full 0 fifo-max 4000")
+            format!("[  183.8 INFO ] counters: messages: received {controller_in} answered {answered} | dropped: foreign 0 invalid_source 0 throttled 0 decode 0 | transport: send_errors 0 tcp_stalled 0 | ids: lost 56 duplicates 0 reordered 0 | supervision: timeouts 0 | engine latency (message in to reply ready; the page and /metrics show the driver's, frame to frame) us: max 10693 mean 124 | fragments: fragments 0 reassembled 0 oversize 0 unwanted 0 malformed 0 no_buffer 0 duplicate 0 timed_out 0 evicted 0 spoiled 0 | controller: in {controller_in} incomplete 0 dropped 0 | nic read: rx_frames 2900 rx_dropped 0 status_full 0 fifo_max 4000")
         };
         let mut summary = crate::robot::report::Summary {
             sent: 2500,
@@ -337,7 +435,7 @@ mod counter_tests {
                 fifo_max: 4560
             })
         );
-        let na = LINE.replace("nic read", "nic n/a");
+        let na = LINE.replace("nic read:", "nic n/a:");
         assert_eq!(DeviceCounters::parse(&na).unwrap().nic, None);
         assert_eq!(DeviceCounters::parse("[ 1 INFO ] state CONNECTED"), None);
     }
@@ -357,7 +455,7 @@ mod counter_tests {
     #[test]
     fn an_answered_message_reached_the_engine_though_the_guard_did_not_count_it() {
         // The first datagram from a controller's new port is answered
-        // before the guard knows the port: controller-in 9, answered 10.
+        // before the guard knows the port: controller in 9, answered 10.
         let mut c = DeviceCounters::parse(LINE).unwrap();
         c.answered = 10;
         let s = LossSplit::of(12, 10, &c);

@@ -451,7 +451,7 @@ mod tests {
             "[0.1 INFO ] bench bytes=698 answered=true compute=3000 full=3500 frames=1 read=1 driver=1 guard=2 smoltcp=3 before=0 lost=0",
             "[0.1 INFO ] bench bytes=20 answered=false compute=50 full=0 frames=1 read=1 driver=1 guard=2 smoltcp=3 before=0 lost=0",
             "[1.0 INFO ] stack: boot 50000 running 9000 of 87776 bytes, 43% margin",
-            "[1.0 INFO ] counters: received 4 answered 3 dropped foreign 0 invalid-source 0 throttled 0 decode 1 | send-errors 0 stalled 0 | lost 0 dup 0 reordered 0 timeouts 0 | latency us max 9 mean 5 | fragments 0 reassembled 0 oversize 0 unwanted 0 malformed 0 no-buffer 0 duplicate 0 timed-out 0 evicted 0 spoiled 0 | controller-in 4 controller-incomplete 0 controller-dropped 0 | nic n/a",
+            "[1.0 INFO ] counters: messages: received 4 answered 3 | dropped: foreign 0 invalid_source 0 throttled 0 decode 1 | transport: send_errors 0 tcp_stalled 0 | ids: lost 0 duplicates 0 reordered 0 | supervision: timeouts 0 | engine latency (message in to reply ready; the page and /metrics show the driver's, frame to frame) us: max 9 mean 5 | fragments: fragments 0 reassembled 0 oversize 0 unwanted 0 malformed 0 no_buffer 0 duplicate 0 timed_out 0 evicted 0 spoiled 0 | controller: in 4 incomplete 0 dropped 0 | nic n/a: rx_frames 0 rx_dropped 0 status_full 0 fifo_max 0",
         ]
         .iter()
         .map(|s| s.to_string())

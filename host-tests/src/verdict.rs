@@ -2,7 +2,7 @@
 //! this host told apart from the firmware's), the host's own timer, and
 //! the verdict on a finished run (`cargo demo`, `cargo hil`).
 
-use crate::counters::LossSplit;
+use crate::counters::{DeviceCounters, LossSplit};
 use crate::robot::report::Summary;
 use std::time::Duration;
 
@@ -235,15 +235,8 @@ pub fn verdict(name: &str, ran: &Ran) -> Result<(), Failure> {
 
 /// The engine's latency (max, mean µs) from the device's last counter line.
 fn engine_latency(log: &[String]) -> Option<(u64, u64)> {
-    let line = log.iter().rev().find(|l| l.contains(" counters: "))?;
-    let (_, rest) = line.split_once(" us max ")?;
-    let mut words = rest.split_whitespace();
-    let max = words.next()?.parse().ok()?;
-    let mean = match (words.next(), words.next()) {
-        (Some("mean"), Some(m)) => m.parse().ok()?,
-        _ => return None,
-    };
-    Some((max, mean))
+    let d = log.iter().rev().find_map(|l| DeviceCounters::parse(l))?;
+    Some((d.latency_max_us, d.latency_mean_us))
 }
 
 #[cfg(test)]
@@ -283,7 +276,7 @@ mod tests {
     #[test]
     fn the_engines_latency_is_read_from_the_counter_line() {
         let log = vec![
-            "[1.0 INFO ] counters: received 4 answered 4 | lost 0 | engine latency (message in to reply ready; the page shows the driver's, frame to frame) us max 912 mean 140 | fragments 0".to_string(),
+            "[1.0 INFO ] counters: messages: received 4 answered 4 | dropped: foreign 0 invalid_source 0 throttled 0 decode 0 | ids: lost 0 | engine latency (message in to reply ready; the page and /metrics show the driver's, frame to frame) us: max 912 mean 140 | fragments: fragments 0 reassembled 0 oversize 0 unwanted 0 malformed 0 no_buffer 0 duplicate 0 timed_out 0 evicted 0 spoiled 0 | controller: in 4 incomplete 0 dropped 0 | nic n/a: rx_frames 0 rx_dropped 0 status_full 0 fifo_max 0".to_string(),
         ];
         assert_eq!(engine_latency(&log), Some((912, 140)));
         assert_eq!(engine_latency(&[]), None);

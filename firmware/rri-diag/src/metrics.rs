@@ -7,7 +7,7 @@
 //! whose labels say who the device is. Seconds are written as decimals
 //! of integer microseconds: no float formatting.
 
-use super::counters::FAMILIES;
+use super::counters::{Family, FAMILIES};
 use super::out::Out;
 use super::status::{Identity, Status};
 use rri_firmware::codec::DecodeErrorKind;
@@ -25,6 +25,34 @@ fn family(o: &mut dyn Out, name: &str, kind: &str, help: &str) {
     o.str(" ");
     o.str(kind);
     o.str("\n");
+}
+
+/// `# HELP` and `# TYPE` of a counter family, the help going on with
+/// what each member counts, as the page shows it: `# HELP
+/// rri_messages_total Robot messages and answers. outcome="received":
+/// datagrams …. outcome="answered": ….` (the text format ends HELP at the
+/// line's end; the meanings hold no `\` or newline, a test in
+/// `counters.rs` checks).
+#[inline(never)]
+fn counter_family(o: &mut dyn Out, f: &Family) {
+    o.str("# HELP ");
+    o.str(f.metric);
+    o.str(" ");
+    o.str(f.help);
+    for c in f.members {
+        o.str(" ");
+        if let Some(label) = f.label {
+            o.str(label);
+            o.str("=\"");
+            o.str(c.key);
+            o.str("\": ");
+        }
+        o.str(c.means);
+        o.str(".");
+    }
+    o.str("\n# TYPE ");
+    o.str(f.metric);
+    o.str(" counter\n");
 }
 
 /// A sample's value: a number, or microseconds written as seconds.
@@ -161,7 +189,7 @@ fn counters(o: &mut dyn Out, id: &Identity, s: &Status) {
     // `black_box`: a loop over constant tables the optimizer would
     // otherwise unroll into one copy of the writers per counter.
     for f in core::hint::black_box(&FAMILIES).iter() {
-        family(o, f.metric, "counter", f.help);
+        counter_family(o, f);
         for c in f.members {
             let v = (c.get)(st);
             sample(o, f.metric, f.label.map(|l| (l, c.key)), V::N(v));

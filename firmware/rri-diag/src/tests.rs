@@ -309,6 +309,32 @@ fn latency_histogram_adds_up_in_json() {
     assert_eq!((at(512), at(1024), at(32_768)), (Some(2), Some(1), Some(1)));
 }
 
+/// Issue 42 #8: `/metrics` says in each counter family's `# HELP` what
+/// every member counts, in the words of the page (`counters.rs`).
+#[test]
+fn metrics_help_says_what_each_counter_counts() {
+    let (_, body) = response(Route::Metrics, false);
+    let metrics = String::from_utf8(body).unwrap();
+    let help = metrics
+        .lines()
+        .find(|l| l.starts_with("# HELP rri_messages_total "))
+        .expect("the messages' HELP");
+    assert!(
+        help.contains(
+            "outcome=\"received\": datagrams and TCP messages the engine took in, from any source"
+        ),
+        "{help}"
+    );
+    let help = metrics
+        .lines()
+        .find(|l| l.starts_with("# HELP rri_controller_datagrams_total "))
+        .expect("the controller's HELP");
+    assert!(
+        help.contains("so the first robot message is not among them"),
+        "{help}"
+    );
+}
+
 #[test]
 fn metrics_parse_with_a_real_exposition_parser() {
     use openmetrics_parser::prometheus::parse_prometheus;
@@ -392,8 +418,19 @@ fn the_page_is_the_gzip_of_its_source_and_only_for_clients_that_take_gzip() {
         .lines()
         .map(str::trim_start)
         .collect::<Vec<_>>()
-        .join("\n");
+        .join("\n")
+        .replace(
+            "const MEANS={};",
+            include_str!(concat!(env!("OUT_DIR"), "/means.js")),
+        );
     assert_eq!(page, source);
+    // Issue 42 #8: the page says what each counter counts, from the table.
+    assert!(
+        page.contains(
+            "\"controller.in\":\"the controller's datagrams that reached the device whole"
+        ),
+        "the page does not explain controller: in"
+    );
     // Strings reach the DOM as text only: no markup built from data.
     assert!(
         !page.contains("innerHTML")

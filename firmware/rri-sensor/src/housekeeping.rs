@@ -99,7 +99,10 @@ fn state_led(state: SensorState, tick: u32) -> bool {
 /// The counter line, once a second (host tools parse it:
 /// `host-tests/src/counters.rs`): the engine's counters, the fragment
 /// guard's (S5) and the network chip's own receive counters where the
-/// board reads them (`nic n/a` where it does not).
+/// board reads them (`nic n/a` where it does not). Each group is
+/// `family: key value …` with the family and key the page, `/status.json`
+/// and `/metrics` use (`rri-diag`'s `counters.rs`, which says what each
+/// counts; a host test holds this line to that table).
 fn log_counters(s: &Snapshot) {
     let st = &s.stats;
     let fr = &st.fragments;
@@ -108,7 +111,7 @@ fn log_counters(s: &Snapshot) {
         None => ("n/a", hal_board::NicCounters::default()),
     };
     defmt::info!(
-        "counters: received {} answered {} dropped foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} timeouts {} | engine latency (message in to reply ready; the page shows the driver's, frame to frame) us max {} mean {} | fragments {} reassembled {} oversize {} unwanted {} malformed {} no-buffer {} duplicate {} timed-out {} evicted {} spoiled {} | controller-in {} controller-incomplete {} controller-dropped {} | nic {=str} rx {} rx-dropped {} status-full {} fifo-max {}",
+        "counters: messages: received {} answered {} | dropped: foreign {} invalid_source {} throttled {} decode {} | transport: send_errors {} tcp_stalled {} | ids: lost {} duplicates {} reordered {} | supervision: timeouts {} | engine latency (message in to reply ready; the page and /metrics show the driver's, frame to frame) us: max {} mean {} | fragments: fragments {} reassembled {} oversize {} unwanted {} malformed {} no_buffer {} duplicate {} timed_out {} evicted {} spoiled {} | controller: in {} incomplete {} dropped {} | nic {=str}: rx_frames {} rx_dropped {} status_full {} fifo_max {}",
         st.received,
         st.answered,
         st.dropped_foreign,

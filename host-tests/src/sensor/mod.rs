@@ -125,7 +125,12 @@ fn state_text(state: SensorState, error: Option<ErrorCode>) -> String {
     }
 }
 
-/// One statistics line (also the summary's body).
+/// One statistics line (also the summary's body): every counter family
+/// as `family: key value …`, named as on the page, in `/status.json` and
+/// `/metrics` (`rri_diag::counters::FAMILIES`, which says what each
+/// counts) and as the boards' counter line names them, then the engine's
+/// latency. The fragment guard's families are left out: the host sensor
+/// sits on the host's sockets, which reassemble for it.
 pub fn stats_line(s: &Stats) -> String {
     let h = &s.latency;
     let mean = if h.count > 0 {
@@ -133,26 +138,24 @@ pub fn stats_line(s: &Stats) -> String {
     } else {
         0.0
     };
-    format!(
-        "received {} answered {} periodic {} | dropped: foreign {} invalid-source {} throttled {} decode {} | send-errors {} stalled {} | lost {} dup {} reordered {} | timeouts {} max-lost {} | latency us min {} mean {:.0} max {}",
-        s.received,
-        s.answered,
-        s.periodic_sent,
-        s.dropped_foreign,
-        s.dropped_invalid_source,
-        s.dropped_throttled,
-        s.dropped_decode,
-        s.send_errors,
-        s.stalled_closed,
-        s.lost,
-        s.duplicates,
-        s.reordered,
-        s.timeouts,
-        s.max_lost_exceeded,
+    let mut line = String::new();
+    for f in rri_diag::counters::FAMILIES {
+        if f.key == "fragments" || f.key == "controller" {
+            continue;
+        }
+        line.push_str(f.key);
+        line.push(':');
+        for m in f.members {
+            line.push_str(&format!(" {} {}", m.key, (m.get)(s)));
+        }
+        line.push_str(" | ");
+    }
+    line.push_str(&format!(
+        "engine latency (message in to reply ready) us: min {} mean {mean:.0} max {}",
         if h.count > 0 { h.min_us } else { 0 },
-        mean,
         h.max_us,
-    )
+    ));
+    line
 }
 
 /// Who the host sensor is, for its diagnostics.
