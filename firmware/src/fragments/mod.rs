@@ -46,6 +46,7 @@
 mod coverage;
 mod frame;
 mod reassembly;
+mod slot;
 pub use reassembly::{Reassembler, Verdict};
 
 #[cfg(feature = "net")]
