@@ -1,0 +1,284 @@
+//! One upload: the file in pieces into the update partition, then the
+//! checks, then the mark for the swap. Nothing is marked before every
+//! check passed, so a refused, abandoned or cut-off upload leaves the
+//! state partition as it was: the bootloader boots the running image.
+
+use crate::image::{BadTrailer, Running, Trailer, SIGNATURE_LEN, TRAILER_LEN};
+use embassy_boot::{
+    BlockingFirmwareState, BlockingFirmwareUpdater, FirmwareUpdaterConfig, FirmwareUpdaterError,
+    State,
+};
+use embedded_storage::nor_flash::{NorFlash, NorFlashErrorKind};
+
+/// Bytes gathered before each write to the update partition: a multiple of
+/// every board's flash write size (F7: 16, H7: 32; checked at build time)
+/// and a divisor of every erase size, so a file's last piece is padded
+/// (with the erased value) to a whole stage and never past the partition.
+pub const STAGE: usize = 256;
+
+/// Why an update file was refused. Nothing was marked: the running image
+/// goes on and boots again.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Refused {
+    /// The declared length is too short to hold a trailer and a signature.
+    TooShort {
+        /// The length declared.
+        declared: usize,
+    },
+    /// The declared length does not fit the update partition.
+    TooLarge {
+        /// The length declared.
+        declared: usize,
+        /// The partition's bytes.
+        capacity: usize,
+    },
+    /// More bytes came than were declared.
+    TooLong {
+        /// The length declared.
+        declared: usize,
+    },
+    /// Fewer bytes came than were declared (the upload was cut off), or
+    /// the trailer's image length does not match the file's.
+    Truncated {
+        /// Bytes received.
+        received: usize,
+        /// Bytes the file should have.
+        expected: usize,
+    },
+    /// No trailer of ours: not an update file.
+    NotAnImage(BadTrailer),
+    /// An image for another board.
+    OtherBoard,
+    /// Older than the running image (allowed only when forced).
+    Older,
+    /// The signature does not verify with the key built into the
+    /// firmware: unsigned, signed by another key, or altered.
+    BadSignature,
+    /// The running image has not confirmed itself yet after a swap (a
+    /// second update now would lose the image to roll back to).
+    NotConfirmed,
+    /// The flash refused a read, write or erase.
+    Flash(NorFlashErrorKind),
+}
+
+impl Refused {
+    /// One line for the log and the status page.
+    pub fn text(&self) -> &'static str {
+        match self {
+            Refused::TooShort { .. } => {
+                "shorter than a trailer and a signature: not an update file"
+            }
+            Refused::TooLarge { .. } => "larger than the update partition",
+            Refused::TooLong { .. } => "more bytes than the upload declared",
+            Refused::Truncated { .. } => "truncated: fewer bytes than the file says it has",
+            Refused::NotAnImage(BadTrailer::Magic) => "not an update file (no trailer)",
+            Refused::NotAnImage(BadTrailer::Reserved) => {
+                "not an update file of this format (reserved bytes set)"
+            }
+            Refused::NotAnImage(BadTrailer::Board) => "not an update file (no board name)",
+            Refused::OtherBoard => "an image for another board",
+            Refused::Older => "older than the running image (force to install it)",
+            Refused::BadSignature => "the signature does not verify with this device's key",
+            Refused::NotConfirmed => "the running image has not confirmed itself since its update",
+            Refused::Flash(_) => "the flash refused an operation",
+        }
+    }
+}
+
+impl From<FirmwareUpdaterError> for Refused {
+    fn from(e: FirmwareUpdaterError) -> Self {
+        match e {
+            FirmwareUpdaterError::Flash(kind) => Refused::Flash(kind),
+            FirmwareUpdaterError::Signature(_) => Refused::BadSignature,
+            FirmwareUpdaterError::BadState => Refused::NotConfirmed,
+        }
+    }
+}
+
+/// The stage, on the alignment flash drivers want of a source buffer.
+#[repr(C, align(32))]
+struct Stage([u8; STAGE]);
+
+/// An upload in progress. `begin`, then `push` the file's bytes in order,
+/// in pieces of any size, then `finish`. Dropping it changes nothing the
+/// bootloader reads.
+pub struct Upload<'d, DFU: NorFlash, STATE: NorFlash> {
+    updater: BlockingFirmwareUpdater<'d, DFU, STATE>,
+    declared: usize,
+    received: usize,
+    /// Bytes written to the partition (whole stages).
+    written: usize,
+    stage: Stage,
+    staged: usize,
+}
+
+impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
+    /// Starts an upload of a file of `declared` bytes into `config`'s
+    /// update partition (`aligned`: a buffer of the state partition's
+    /// write size, as embassy-boot asks). Refused when it cannot hold a
+    /// trailer and a signature, does not fit, or the running image has
+    /// not confirmed itself.
+    pub fn begin(
+        config: FirmwareUpdaterConfig<DFU, STATE>,
+        aligned: &'d mut [u8],
+        declared: usize,
+    ) -> Result<Self, Refused> {
+        const {
+            assert!(
+                STAGE.is_multiple_of(DFU::WRITE_SIZE),
+                "a stage is whole flash writes"
+            );
+            assert!(
+                DFU::ERASE_SIZE.is_multiple_of(STAGE),
+                "a sector is whole stages"
+            );
+        }
+        let capacity = config.dfu.capacity();
+        if declared <= TRAILER_LEN + SIGNATURE_LEN {
+            return Err(Refused::TooShort { declared });
+        }
+        if declared > capacity {
+            return Err(Refused::TooLarge { declared, capacity });
+        }
+        let mut updater = BlockingFirmwareUpdater::new(config, aligned);
+        match updater.get_state()? {
+            State::Swap => return Err(Refused::NotConfirmed),
+            State::Boot | State::Revert | State::DfuDetach => {}
+        }
+        Ok(Upload {
+            updater,
+            declared,
+            received: 0,
+            written: 0,
+            stage: Stage([0; STAGE]),
+            staged: 0,
+        })
+    }
+
+    /// Bytes received so far.
+    pub fn received(&self) -> usize {
+        self.received
+    }
+
+    /// The next piece of the file. Work: a copy of `bytes` and a flash
+    /// write (with its sector's erase, the first time) per whole stage.
+    pub fn push(&mut self, mut bytes: &[u8]) -> Result<(), Refused> {
+        if bytes.len() > self.declared - self.received {
+            return Err(Refused::TooLong {
+                declared: self.declared,
+            });
+        }
+        while !bytes.is_empty() {
+            let room = STAGE - self.staged;
+            let (now, later) = bytes.split_at(room.min(bytes.len()));
+            if let Some(to) = self.stage.0.get_mut(self.staged..self.staged + now.len()) {
+                to.copy_from_slice(now);
+            }
+            self.staged += now.len();
+            self.received += now.len();
+            bytes = later;
+            if self.staged == STAGE {
+                self.flush()?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes the stage (its unfilled end erased-value) at `written`.
+    fn flush(&mut self) -> Result<(), Refused> {
+        if self.staged == 0 {
+            return Ok(());
+        }
+        if let Some(rest) = self.stage.0.get_mut(self.staged..) {
+            rest.fill(0xFF);
+        }
+        self.updater.write_firmware(self.written, &self.stage.0)?;
+        self.written += STAGE;
+        self.staged = 0;
+        Ok(())
+    }
+
+    /// Checks the whole file and marks it for the swap: the length, the
+    /// trailer (board; version unless `force`), then the signature with
+    /// `key` (the 32-byte ed25519 public key built into the firmware).
+    /// On success the next reset swaps the image in; the trailer is
+    /// returned for the log.
+    pub fn finish(
+        mut self,
+        running: &Running,
+        key: &[u8; 32],
+        force: bool,
+    ) -> Result<Trailer, Refused> {
+        if self.received != self.declared {
+            return Err(Refused::Truncated {
+                received: self.received,
+                expected: self.declared,
+            });
+        }
+        self.flush()?;
+        let signed = self.declared - SIGNATURE_LEN;
+        let mut raw = [0; TRAILER_LEN];
+        self.read(signed - TRAILER_LEN, &mut raw)?;
+        let trailer = Trailer::decode(&raw).map_err(Refused::NotAnImage)?;
+        let expected = (trailer.image_len as usize)
+            .saturating_add(TRAILER_LEN)
+            .saturating_add(SIGNATURE_LEN);
+        if expected != self.declared {
+            return Err(Refused::Truncated {
+                received: self.declared,
+                expected,
+            });
+        }
+        if trailer.board_name() != running.board {
+            return Err(Refused::OtherBoard);
+        }
+        if trailer.version < running.version && !force {
+            return Err(Refused::Older);
+        }
+        let mut signature = [0; SIGNATURE_LEN];
+        self.read(signed, &mut signature)?;
+        let digest = self.digest(signed)?;
+        let key = salty::PublicKey::try_from(key).map_err(|_| Refused::BadSignature)?;
+        key.verify(&digest, &salty::Signature::from(&signature))
+            .map_err(|_| Refused::BadSignature)?;
+        self.updater.mark_updated()?;
+        Ok(trailer)
+    }
+
+    /// SHA-512 of the partition's first `len` bytes, a stage at a time.
+    fn digest(&mut self, len: usize) -> Result<[u8; 64], Refused> {
+        let mut hash = salty::Sha512::new();
+        let mut at = 0;
+        while at < len {
+            let n = STAGE.min(len - at);
+            let mut chunk = [0; STAGE];
+            let part = chunk.get_mut(..n).unwrap_or(&mut []);
+            self.read(at, part)?;
+            hash.update(part);
+            at += n;
+        }
+        Ok(hash.finalize())
+    }
+
+    fn read(&mut self, at: usize, buf: &mut [u8]) -> Result<(), Refused> {
+        let at = u32::try_from(at).map_err(|_| Refused::Flash(NorFlashErrorKind::OutOfBounds))?;
+        self.updater.read_dfu(at, buf).map_err(Refused::from)
+    }
+}
+
+/// The state the bootloader left (`Swap`: this image was just swapped in
+/// and has not confirmed itself; a reset now rolls it back).
+pub fn state<STATE: NorFlash>(state: STATE, aligned: &mut [u8]) -> Result<State, Refused> {
+    BlockingFirmwareState::new(state, aligned)
+        .get_state()
+        .map_err(Refused::from)
+}
+
+/// The running image confirms itself (it reached OPERATING with its
+/// controller, or passed its self-test): from now on a reset boots it,
+/// and the previous image is no longer kept to roll back to.
+pub fn confirm<STATE: NorFlash>(state: STATE, aligned: &mut [u8]) -> Result<(), Refused> {
+    BlockingFirmwareState::new(state, aligned)
+        .mark_booted()
+        .map_err(Refused::from)
+}
