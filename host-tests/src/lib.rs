@@ -24,6 +24,7 @@ pub mod demo;
 pub mod device;
 pub mod diagnostics;
 pub mod differential;
+pub mod flash_model;
 pub mod fuzzing;
 pub mod hil;
 pub mod http_attack;
@@ -37,6 +38,7 @@ pub mod replay;
 pub mod run_args;
 pub mod sensor;
 pub mod setup;
+pub mod update_file;
 pub mod verdict;
 
 /// The robot-controller simulator, a crate of its own (`rri-robot`) so

@@ -1,0 +1,422 @@
+//! Update in the cell (issue 43), the device's half against a flash model:
+//! every refused file leaves the running image marked and booting, and a
+//! power cut at every flash operation of an upload, of the swap and of
+//! the confirmation leaves a device that boots a whole, signed image, the
+//! old one or the new one, and rolls an unconfirmed new one back.
+//!
+//! The partitions are scaled down (2 KiB sectors, 32-byte words as on the
+//! H743) so that a cut can be tried at every one of the run's operations;
+//! the algorithm (embassy-boot's swap) and the checks are the boards'.
+
+use embassy_boot::{BootLoader, BootLoaderConfig, FirmwareUpdaterConfig, State};
+use host_tests::flash_model::{Flash, Power};
+use rri_update::{sign, Refused, Running, Trailer, Upload, Version};
+use std::rc::Rc;
+
+const SECTOR: usize = 2048;
+const WORD: usize = 32;
+type F = Flash<SECTOR, WORD>;
+
+/// ACTIVE 2 sectors, DFU one more (embassy-boot's rule), STATE one.
+const ACTIVE: usize = 2 * SECTOR;
+const DFU: usize = ACTIVE + SECTOR;
+const STATE: usize = SECTOR;
+
+const BOARD: &str = "nucleo-h743zi";
+const SEED: [u8; 32] = [7; 32];
+const OTHER_SEED: [u8; 32] = [9; 32];
+
+fn v(text: &str) -> Version {
+    Version::parse(text).unwrap()
+}
+
+const RUNNING: Running = Running {
+    board: BOARD,
+    version: match Version::parse("0.2.0") {
+        Some(v) => v,
+        None => panic!("a version"),
+    },
+};
+
+/// An update file: `len` bytes of image (a pattern of `fill`), its
+/// trailer, its signature by `seed`.
+fn file(fill: u8, len: usize, board: &str, version: &str, seed: &[u8; 32]) -> Vec<u8> {
+    let image: Vec<u8> = (0..len).map(|i| fill ^ (i as u8)).collect();
+    let trailer = Trailer::new(board, v(version), len as u32)
+        .unwrap()
+        .encode();
+    let signature = sign::signature(&image, &trailer, seed);
+    [image, trailer.to_vec(), signature.to_vec()].concat()
+}
+
+/// One chip: its three partitions and its power.
+struct Chip {
+    power: Rc<Power>,
+    active: F,
+    dfu: F,
+    state: F,
+}
+
+impl Chip {
+    /// The running image `a` flashed by a probe, nothing else.
+    fn with(a: &[u8]) -> Chip {
+        let power = Power::new();
+        Chip {
+            active: F::holding(a, ACTIVE, &power),
+            dfu: F::erased(DFU, &power),
+            state: F::erased(STATE, &power),
+            power,
+        }
+    }
+
+    /// The bootloader at a reset: what it decided, or its error. (Ours
+    /// boots ACTIVE either way: an error is logged, and the image that
+    /// then runs confirms itself, which rewrites the state.)
+    fn boot(&mut self) -> Result<State, embassy_boot::BootError> {
+        let mut buf = [0; 512];
+        BootLoader::new(BootLoaderConfig {
+            active: &mut self.active,
+            dfu: &mut self.dfu,
+            state: &mut self.state,
+        })
+        .prepare_boot(&mut buf)
+    }
+
+    /// Uploads `bytes` in pieces of 1,000 and finishes.
+    fn upload(&mut self, bytes: &[u8], force: bool) -> Result<Trailer, Refused> {
+        self.upload_declared(bytes, bytes.len(), force)
+    }
+
+    /// Uploads `bytes`, declared as `declared` bytes long.
+    fn upload_declared(
+        &mut self,
+        bytes: &[u8],
+        declared: usize,
+        force: bool,
+    ) -> Result<Trailer, Refused> {
+        let mut aligned = [0; WORD];
+        let config = FirmwareUpdaterConfig {
+            dfu: &mut self.dfu,
+            state: &mut self.state,
+        };
+        let mut up = Upload::begin(config, &mut aligned, declared)?;
+        for piece in bytes.chunks(1000) {
+            up.push(piece)?;
+        }
+        up.finish(&RUNNING, &sign::public_key(&SEED), force)
+    }
+
+    fn state(&mut self) -> Result<State, Refused> {
+        rri_update::state(&mut self.state, &mut [0; WORD])
+    }
+
+    fn confirm(&mut self) -> Result<(), Refused> {
+        rri_update::confirm(&mut self.state, &mut [0; WORD])
+    }
+
+    /// Which of `a` and `b` ACTIVE holds, whole.
+    fn running(&self, a: &[u8], b: &[u8]) -> Option<char> {
+        let act = self.active.bytes();
+        if act.starts_with(a) {
+            Some('A')
+        } else if act.starts_with(b) {
+            Some('B')
+        } else {
+            None
+        }
+    }
+}
+
+/// A refused file changes nothing the bootloader reads: the state stays
+/// Boot and the next reset boots the running image.
+fn assert_refused(a: &[u8], offered: &[u8], force: bool, want: Refused) {
+    let mut chip = Chip::with(a);
+    assert_eq!(chip.upload(offered, force), Err(want));
+    assert_eq!(chip.state(), Ok(State::Boot));
+    assert_eq!(chip.boot(), Ok(State::Boot));
+    assert!(
+        chip.active.bytes().starts_with(a),
+        "the running image is untouched"
+    );
+}
+
+#[test]
+fn unsigned_altered_other_board_older_and_short_files_are_refused_and_nothing_is_marked() {
+    let a = file(0xA0, 2000, BOARD, "0.2.0", &SEED);
+    let b = file(0xB0, 3000, BOARD, "0.3.0", &SEED);
+
+    // Unsigned (a zero signature), signed by another key, one byte altered.
+    let mut unsigned = b.clone();
+    let n = unsigned.len();
+    unsigned[n - 64..].fill(0);
+    assert_refused(&a, &unsigned, false, Refused::BadSignature);
+    assert_refused(
+        &a,
+        &file(0xB0, 3000, BOARD, "0.3.0", &OTHER_SEED),
+        false,
+        Refused::BadSignature,
+    );
+    let mut altered = b.clone();
+    altered[100] ^= 1;
+    assert_refused(&a, &altered, false, Refused::BadSignature);
+
+    // For another board, even signed by our key.
+    assert_refused(
+        &a,
+        &file(0xB0, 3000, "nucleo-f767zi", "0.3.0", &SEED),
+        false,
+        Refused::OtherBoard,
+    );
+
+    // Older: refused, unless forced.
+    let older = file(0xB0, 3000, BOARD, "0.1.9", &SEED);
+    assert_refused(&a, &older, false, Refused::Older);
+    let mut chip = Chip::with(&a);
+    assert!(
+        chip.upload(&older, true).is_ok(),
+        "forced, an older image is marked"
+    );
+
+    // Not an update file at all; cut off before its end; too large.
+    let mut not_ours = b.clone();
+    let at = n - 128;
+    not_ours[at] = b'X';
+    assert!(matches!(
+        Chip::with(&a).upload(&not_ours, false),
+        Err(Refused::NotAnImage(_))
+    ));
+    // The connection dropped one byte short of the declared length.
+    let mut chip = Chip::with(&a);
+    assert_eq!(
+        chip.upload_declared(&b[..n - 1], n, false),
+        Err(Refused::Truncated {
+            received: n - 1,
+            expected: n
+        })
+    );
+    assert_eq!(chip.boot(), Ok(State::Boot));
+    // A file cut short on disk (declared as what it holds): its trailer
+    // is not where the length says.
+    assert!(matches!(
+        Chip::with(&a).upload(&b[..n - 1], false),
+        Err(Refused::NotAnImage(_))
+    ));
+    assert_refused(&a, &[0; 100], false, Refused::TooShort { declared: 100 });
+    let huge = vec![0; DFU + 1];
+    assert_refused(
+        &a,
+        &huge,
+        false,
+        Refused::TooLarge {
+            declared: DFU + 1,
+            capacity: DFU,
+        },
+    );
+
+    // An upload that stops half-way (the connection dropped) and is
+    // never finished: nothing marked.
+    let mut chip = Chip::with(&a);
+    {
+        let mut aligned = [0; WORD];
+        let config = FirmwareUpdaterConfig {
+            dfu: &mut chip.dfu,
+            state: &mut chip.state,
+        };
+        let mut up = Upload::begin(config, &mut aligned, b.len()).unwrap();
+        up.push(&b[..1500]).unwrap();
+        assert_eq!(
+            up.push(&vec![0; b.len()]),
+            Err(Refused::TooLong { declared: b.len() })
+        );
+    }
+    assert_eq!(chip.boot(), Ok(State::Boot));
+    assert!(chip.active.bytes().starts_with(&a));
+}
+
+/// The whole way, no cut: upload, swap, the new image confirms itself;
+/// and the same without the confirmation, rolled back at the next reset.
+#[test]
+fn a_signed_image_swaps_in_and_an_unconfirmed_one_is_rolled_back() {
+    let a = file(0xA0, 2000, BOARD, "0.2.0", &SEED);
+    let b = file(0xB0, 3000, BOARD, "0.3.0", &SEED);
+
+    let mut chip = Chip::with(&a);
+    let t = chip.upload(&b, false).unwrap();
+    assert_eq!((t.board_name(), t.version), (BOARD, v("0.3.0")));
+    assert_eq!(chip.boot(), Ok(State::Swap));
+    assert_eq!(chip.running(&a, &b), Some('B'));
+    assert_eq!(
+        chip.state(),
+        Ok(State::Swap),
+        "the new image sees it is on trial"
+    );
+    // A second upload before the confirmation would lose the image to
+    // roll back to.
+    assert_eq!(chip.upload(&b, false), Err(Refused::NotConfirmed));
+    chip.confirm().unwrap();
+    assert_eq!(chip.boot(), Ok(State::Boot));
+    assert_eq!(chip.running(&a, &b), Some('B'));
+
+    let mut chip = Chip::with(&a);
+    chip.upload(&b, false).unwrap();
+    assert_eq!(chip.boot(), Ok(State::Swap));
+    assert_eq!(chip.running(&a, &b), Some('B'));
+    // It never reached OPERATING: no confirmation; the watchdog resets.
+    assert_eq!(
+        chip.boot(),
+        Ok(State::Swap),
+        "embassy-boot reports the revert as a swap"
+    );
+    assert_eq!(chip.running(&a, &b), Some('A'), "rolled back");
+    assert_eq!(chip.state(), Ok(State::Revert));
+    chip.confirm().unwrap();
+    assert_eq!(chip.boot(), Ok(State::Boot));
+    assert_eq!(chip.running(&a, &b), Some('A'));
+}
+
+/// What one run did before its cut.
+#[derive(Debug)]
+struct Cut {
+    at: u64,
+    /// The step the power went off in.
+    step: &'static str,
+}
+
+/// The run of an update, the power cut at operation `cut` (`None`: no
+/// cut): upload, reset (the swap), the new image runs and (if
+/// `confirms`) confirms itself, reset. Returns the chip as the cut left
+/// it, and where the cut fell.
+fn run(a: &[u8], b: &[u8], cut: Option<u64>, confirms: bool) -> (Chip, Option<Cut>) {
+    let mut chip = Chip::with(a);
+    chip.power.cut_at(cut);
+    let off = |chip: &Chip, step| {
+        chip.power.is_off().then(|| Cut {
+            at: cut.unwrap_or(0),
+            step,
+        })
+    };
+    let up = chip.upload(b, false);
+    if let Some(c) = off(&chip, "upload") {
+        return (chip, Some(c));
+    }
+    up.expect("an upload with the power on is accepted");
+    let swap = chip.boot();
+    if let Some(c) = off(&chip, "swap") {
+        return (chip, Some(c));
+    }
+    assert_eq!(swap, Ok(State::Swap));
+    if confirms {
+        let confirmed = chip.confirm();
+        if let Some(c) = off(&chip, "confirmation") {
+            return (chip, Some(c));
+        }
+        confirmed.unwrap();
+    }
+    let next = chip.boot();
+    if let Some(c) = off(&chip, "rollback at the next reset") {
+        return (chip, Some(c));
+    }
+    next.unwrap();
+    (chip, None)
+}
+
+/// After a cut: the power comes back and the device starts, and goes on
+/// starting until an image confirms itself. Every start must find a
+/// whole image, A or B, in ACTIVE (the bootloader boots it even when it
+/// reported an error, as ours does). A runs and confirms itself (it is
+/// the image that worked); B confirms itself only when `confirms`,
+/// otherwise the watchdog resets it. Returns the image it settled on and
+/// how many starts reported a bootloader error.
+fn recover(chip: &mut Chip, a: &[u8], b: &[u8], confirms: bool, cut: &Cut) -> (char, u32) {
+    chip.power.restore();
+    let mut errors = 0;
+    for _start in 0..4 {
+        if chip.boot().is_err() {
+            errors += 1;
+        }
+        let running = chip
+            .running(a, b)
+            .unwrap_or_else(|| panic!("{cut:?}: ACTIVE holds neither image whole"));
+        if running == 'B' && !confirms {
+            continue;
+        }
+        chip.confirm()
+            .unwrap_or_else(|e| panic!("{cut:?}: {running} could not confirm itself: {e:?}"));
+        let after = chip.boot();
+        assert_eq!(
+            after,
+            Ok(State::Boot),
+            "{cut:?}: the start after the confirmation"
+        );
+        assert_eq!(chip.running(a, b), Some(running), "{cut:?}: it stays");
+        return (running, errors);
+    }
+    panic!("{cut:?}: no image confirmed itself in four starts")
+}
+
+fn every_cut(confirms: bool) -> (u64, Vec<(&'static str, char, u32)>) {
+    let a = file(0xA0, 2000, BOARD, "0.2.0", &SEED);
+    let b = file(0xB0, 3000, BOARD, "0.3.0", &SEED);
+    let (chip, cut) = run(&a, &b, None, confirms);
+    assert!(cut.is_none());
+    let total = chip.power.ops();
+    assert!(total > 200, "the run is {total} operations");
+    let mut outcomes = Vec::new();
+    for n in 0..total {
+        let (mut chip, cut) = run(&a, &b, Some(n), confirms);
+        let cut = cut.unwrap_or_else(|| panic!("a cut at {n} of {total} fell in no step"));
+        assert_eq!(cut.at, n);
+        let (settled, errors) = recover(&mut chip, &a, &b, confirms, &cut);
+        outcomes.push((cut.step, settled, errors));
+    }
+    (total, outcomes)
+}
+
+/// A power cut at every flash operation of an update that confirms
+/// itself: the device always comes back with a whole image; cut in the
+/// upload, the old one; once the swap has begun, the new one.
+#[test]
+fn a_power_cut_at_every_operation_of_a_confirmed_update_leaves_a_bootable_device() {
+    let (total, outcomes) = every_cut(true);
+    let in_step = |step: &'static str| outcomes.iter().filter(move |o| o.0 == step);
+    assert!(
+        in_step("upload").all(|o| o.1 == 'A'),
+        "a cut upload keeps A"
+    );
+    assert!(in_step("swap").count() > 100, "cuts inside the swap");
+    assert!(
+        in_step("swap").all(|o| o.1 == 'B'),
+        "a swap resumes after a cut"
+    );
+    report(total, &outcomes);
+}
+
+/// The same for an update that never confirms itself (it never reached
+/// OPERATING): wherever the power was cut, the device ends on A.
+#[test]
+fn a_power_cut_at_every_operation_of_an_unconfirmed_update_ends_on_the_old_image() {
+    let (total, outcomes) = every_cut(false);
+    assert!(
+        outcomes.iter().all(|o| o.1 == 'A'),
+        "of {total} cuts: {:?}",
+        outcomes.iter().filter(|o| o.1 == 'B').collect::<Vec<_>>()
+    );
+    report(total, &outcomes);
+}
+
+/// Where the cuts fell, what the device settled on, and the starts at
+/// which embassy-boot reported an error (and booted ACTIVE all the same).
+fn report(total: u64, outcomes: &[(&'static str, char, u32)]) {
+    let mut steps: Vec<&str> = outcomes.iter().map(|o| o.0).collect();
+    steps.dedup();
+    println!("{total} flash operations, the power cut at each:");
+    for step in steps {
+        let of = |r: char| outcomes.iter().filter(|o| o.0 == step && o.1 == r).count();
+        let errors: u32 = outcomes.iter().filter(|o| o.0 == step).map(|o| o.2).sum();
+        println!(
+            "  in the {step}: {} ended on A, {} on B; bootloader errors at {errors} starts",
+            of('A'),
+            of('B')
+        );
+    }
+}
