@@ -1,0 +1,190 @@
+//! `cargo sign-image`: the update files a device takes over the network
+//! (issue 43). Once: `cargo sign-image -- keygen` makes the key pair
+//! (kept in `~/.config/rri-sensor`, or `$RRI_UPDATE_KEY_DIR`: never in the
+//! checkout). Each release: `cargo sign-image -- sign --board f767 --elf
+//! target/nucleo-f767zi/thumbv7em-none-eabihf/firmware/rri-sensor --out
+//! rri-sensor-f767.update` flattens the image, appends its trailer (board,
+//! version, length) and signs both. `check` says what a file is and
+//! whether a public key verifies it, as the device would.
+//!
+//! Not done yet: the devices do not take these files (no upload service,
+//! no bootloader image): see the README's "Update in the cell".
+
+use clap::{Parser, Subcommand, ValueEnum};
+use host_tests::flash_model::{Flash, Power};
+use host_tests::update_file::{self, key_dir, read_key, PUBLIC, SECRET};
+use rri_update::{Running, Trailer, Upload, Version, SIGNATURE_LEN, TRAILER_LEN};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(about = "Make the update key, sign a firmware image, check an update file")]
+struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Board {
+    F767,
+    H743,
+    Qemu,
+}
+
+impl Board {
+    /// The name the trailer carries (and the firmware compares with its own).
+    fn name(self) -> &'static str {
+        match self {
+            Board::F767 => "nucleo-f767zi",
+            Board::H743 => "nucleo-h743zi",
+            Board::Qemu => "mps2-an500",
+        }
+    }
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Make the key pair, once (refuses to replace one).
+    Keygen {
+        /// The key's directory (default: $RRI_UPDATE_KEY_DIR, else ~/.config/rri-sensor).
+        #[arg(long)]
+        dir: Option<PathBuf>,
+    },
+    /// Sign a firmware image for a board.
+    Sign {
+        #[arg(long, value_enum)]
+        board: Board,
+        /// The firmware ELF a board build wrote.
+        #[arg(long)]
+        elf: PathBuf,
+        /// The version the file says it is (default: rri-sensor's, from its Cargo.toml).
+        #[arg(long)]
+        version: Option<String>,
+        /// The secret key (default: the key directory's update-key).
+        #[arg(long)]
+        key: Option<PathBuf>,
+        /// Where to write the update file.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Say what an update file is and whether a public key verifies it.
+    Check {
+        file: PathBuf,
+        /// The public key (default: the key directory's update-key.pub).
+        #[arg(long)]
+        public: Option<PathBuf>,
+    },
+}
+
+fn main() -> ExitCode {
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: Args) -> Result<(), String> {
+    match args.command {
+        Command::Keygen { dir } => {
+            let dir = dir.unwrap_or_else(key_dir);
+            let (secret, public) = update_file::keygen(&dir)?;
+            println!(
+                "secret key: {} (keep it; it signs every image)",
+                secret.display()
+            );
+            println!(
+                "public key: {} (the firmware builds it in)",
+                public.display()
+            );
+            Ok(())
+        }
+        Command::Sign {
+            board,
+            elf,
+            version,
+            key,
+            out,
+        } => {
+            let version = match version {
+                Some(v) => v,
+                None => sensor_version()?,
+            };
+            let parsed = Version::parse(&version)
+                .ok_or_else(|| format!("{version:?} is not a version (major.minor.patch)"))?;
+            let seed = read_key(&key.unwrap_or_else(|| key_dir().join(SECRET)))?;
+            let elf_bytes = std::fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+            let (origin, image) = update_file::flat_image(&elf_bytes)?;
+            let file = update_file::signed_file(&image, board.name(), parsed, &seed)?;
+            std::fs::write(&out, &file).map_err(|e| format!("{}: {e}", out.display()))?;
+            println!(
+                "{}: {} bytes of image from {origin:#010x} for {} version {version}, signed ({} bytes)",
+                out.display(),
+                image.len(),
+                board.name(),
+                file.len()
+            );
+            Ok(())
+        }
+        Command::Check { file, public } => {
+            let bytes = std::fs::read(&file).map_err(|e| format!("{}: {e}", file.display()))?;
+            let key = read_key(&public.unwrap_or_else(|| key_dir().join(PUBLIC)))?;
+            let n = bytes.len();
+            let trailer: [u8; TRAILER_LEN] = n
+                .checked_sub(TRAILER_LEN + SIGNATURE_LEN)
+                .and_then(|at| bytes.get(at..at + TRAILER_LEN))
+                .and_then(|t| t.try_into().ok())
+                .ok_or("too short to be an update file")?;
+            let t = Trailer::decode(&trailer).map_err(|e| format!("not an update file: {e:?}"))?;
+            println!(
+                "{}: for {} version {}.{}.{}, {} bytes of image",
+                file.display(),
+                t.board_name(),
+                t.version.major,
+                t.version.minor,
+                t.version.patch,
+                t.image_len
+            );
+            // The device's own check, on the flash model: a running image
+            // of the file's board at version 0.0.0.
+            let power = Power::new();
+            let size = n.div_ceil(2048) * 2048;
+            let mut dfu = Flash::<2048, 32>::erased(size, &power);
+            let mut state = Flash::<2048, 32>::erased(2048, &power);
+            let mut aligned = [0; 32];
+            let config = rri_update::FirmwareUpdaterConfig {
+                dfu: &mut dfu,
+                state: &mut state,
+            };
+            let board: &'static str = Box::leak(t.board_name().to_string().into_boxed_str());
+            let running = Running {
+                board,
+                version: Version {
+                    major: 0,
+                    minor: 0,
+                    patch: 0,
+                },
+            };
+            let mut up =
+                Upload::begin(config, &mut aligned, n).map_err(|e| e.text().to_string())?;
+            up.push(&bytes).map_err(|e| e.text().to_string())?;
+            up.finish(&running, &key, false)
+                .map_err(|e| format!("the device would refuse it: {}", e.text()))?;
+            println!("signature: verifies with the public key");
+            Ok(())
+        }
+    }
+}
+
+/// rri-sensor's version, from its Cargo.toml.
+fn sensor_version() -> Result<String, String> {
+    let path = host_tests::workspace().join("firmware/rri-sensor/Cargo.toml");
+    let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    text.lines()
+        .find_map(|l| l.strip_prefix("version = \""))
+        .and_then(|l| l.strip_suffix('"'))
+        .map(str::to_string)
+        .ok_or_else(|| format!("{}: no version line", path.display()))
+}
