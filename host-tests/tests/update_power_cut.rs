@@ -30,7 +30,7 @@ fn v(text: &str) -> Version {
     Version::parse(text).unwrap()
 }
 
-const RUNNING: Running = Running {
+const RUNNING: Running<'static> = Running {
     board: BOARD,
     version: match Version::parse("0.2.0") {
         Some(v) => v,

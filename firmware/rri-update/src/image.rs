@@ -86,9 +86,9 @@ impl Version {
 /// What the running firmware is: the file must be for its board and, unless
 /// forced, not older.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Running {
+pub struct Running<'a> {
     /// The board's name, as the trailer writes it.
-    pub board: &'static str,
+    pub board: &'a str,
     /// Its version.
     pub version: Version,
 }

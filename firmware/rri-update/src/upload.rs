@@ -205,7 +205,7 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
     /// returned for the log.
     pub fn finish(
         mut self,
-        running: &Running,
+        running: &Running<'_>,
         key: &[u8; 32],
         force: bool,
     ) -> Result<Trailer, Refused> {

@@ -158,9 +158,8 @@ fn run(args: Args) -> Result<(), String> {
                 dfu: &mut dfu,
                 state: &mut state,
             };
-            let board: &'static str = Box::leak(t.board_name().to_string().into_boxed_str());
             let running = Running {
-                board,
+                board: t.board_name(),
                 version: Version {
                     major: 0,
                     minor: 0,
