@@ -5,8 +5,8 @@
 //!
 //! Before that, the page's `const MEANS={}` is filled with what each
 //! counter counts, read from `src/counters.rs` (each `c("key", "means",
-//! …)` under its family's `key: "…"`), so the page, `/metrics` and the
-//! JSON name and explain every counter from one table. The same text is
+//! …)` under its family's `key: "…"`), so the page and `/metrics`
+//! explain every counter, and name it as the JSON does, from one table. The same text is
 //! written to `$OUT_DIR/means.js`, which a unit test compares with the
 //! table itself: a change of the file's form that this reader misses
 //! fails that test, not the page.
