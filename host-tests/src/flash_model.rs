@@ -7,7 +7,8 @@
 //! manuals (RM0410 for the F767, RM0433 for the H743): a sector erase sets
 //! every byte to 0xFF, and a word (F7: the 16 bytes embassy-stm32 writes
 //! at once; H7: the 32-byte flash word its ECC covers) is programmed once
-//! between erases. A write to a word that is not erased is refused
+//! between erases (whatever it was written with: 0xFF too). A write to a
+//! word programmed since its erase is refused
 //! ([`FlashError::NotErased`]: on the H743 a second program of a flash
 //! word breaks its ECC) and counted ([`Power::refused_writes`]), so a test
 //! sees both the caller's attempt and what it does with the refusal.
@@ -110,6 +111,9 @@ impl NorFlashError for FlashError {
 /// One partition: `ERASE`-byte sectors, `WRITE`-byte words.
 pub struct Flash<const ERASE: usize, const WRITE: usize> {
     mem: Vec<u8>,
+    /// Which words were programmed since their sector's erase: a word
+    /// written with 0xFF is programmed all the same (its ECC on the H743).
+    programmed: Vec<bool>,
     power: Rc<Power>,
 }
 
@@ -119,6 +123,7 @@ impl<const ERASE: usize, const WRITE: usize> Flash<ERASE, WRITE> {
         assert!(size.is_multiple_of(ERASE), "a partition is whole sectors");
         Flash {
             mem: vec![0xFF; size],
+            programmed: vec![false; size / WRITE],
             power: power.clone(),
         }
     }
@@ -128,6 +133,7 @@ impl<const ERASE: usize, const WRITE: usize> Flash<ERASE, WRITE> {
     pub fn holding(bytes: &[u8], size: usize, power: &Rc<Power>) -> Self {
         let mut f = Self::erased(size, power);
         f.mem[..bytes.len()].copy_from_slice(bytes);
+        f.programmed[..bytes.len().div_ceil(WRITE)].fill(true);
         f
     }
 
@@ -183,6 +189,7 @@ impl<const ERASE: usize, const WRITE: usize> NorFlash for Flash<ERASE, WRITE> {
                 return Err(FlashError::PowerCut);
             }
             self.mem[sector..sector + ERASE].fill(0xFF);
+            self.programmed[sector / WRITE..(sector + ERASE) / WRITE].fill(false);
         }
         Ok(())
     }
@@ -191,8 +198,10 @@ impl<const ERASE: usize, const WRITE: usize> NorFlash for Flash<ERASE, WRITE> {
         let start = self.check(offset, bytes.len(), WRITE)?;
         for (i, word) in bytes.chunks(WRITE).enumerate() {
             let at = start + i * WRITE;
-            let held = &mut self.mem[at..at + WRITE];
-            if !held.iter().all(|&b| b == 0xFF) {
+            if self.power.is_off() {
+                return Err(FlashError::PowerCut);
+            }
+            if self.programmed[at / WRITE] {
                 self.power
                     .refused_writes
                     .set(self.power.refused_writes.get() + 1);
@@ -201,7 +210,8 @@ impl<const ERASE: usize, const WRITE: usize> NorFlash for Flash<ERASE, WRITE> {
             if !self.power.tick() {
                 return Err(FlashError::PowerCut);
             }
-            held.copy_from_slice(word);
+            self.mem[at..at + WRITE].copy_from_slice(word);
+            self.programmed[at / WRITE] = true;
         }
         Ok(())
     }
@@ -234,7 +244,10 @@ mod tests {
         let mut f = F::erased(1024, &power);
         f.write(0, &[0x00; 16]).unwrap();
         assert_eq!(f.write(0, &[0x00; 16]), Err(FlashError::NotErased));
-        assert_eq!(power.refused_writes(), 1);
+        // Programmed with the erased value is programmed all the same.
+        f.write(16, &[0xFF; 16]).unwrap();
+        assert_eq!(f.write(16, &[0x00; 16]), Err(FlashError::NotErased));
+        assert_eq!(power.refused_writes(), 2);
         f.erase(0, 256).unwrap();
         assert_eq!(f.write(0, &[0x00; 16]), Ok(()));
     }

@@ -15,14 +15,17 @@ pub const PUBLIC: &str = "update-key.pub";
 /// Where the key lives: `$RRI_UPDATE_KEY_DIR`, else
 /// `~/.config/rri-sensor`. Never inside the checkout: a key committed by
 /// mistake would sign anyone's image.
-pub fn key_dir() -> PathBuf {
+///
+/// Without a `HOME` (or with a relative one) there is no default: the
+/// current directory is likely the checkout.
+pub fn key_dir() -> Result<PathBuf, String> {
     if let Some(dir) = std::env::var_os("RRI_UPDATE_KEY_DIR") {
-        return PathBuf::from(dir);
+        return Ok(PathBuf::from(dir));
     }
-    let home = std::env::var_os("HOME")
-        .map(PathBuf::from)
-        .unwrap_or_default();
-    home.join(".config").join("rri-sensor")
+    match std::env::var_os("HOME").map(PathBuf::from) {
+        Some(home) if home.is_absolute() => Ok(home.join(".config").join("rri-sensor")),
+        _ => Err("no absolute HOME: say where the key lives with RRI_UPDATE_KEY_DIR (outside the checkout)".into()),
+    }
 }
 
 /// Makes a key pair in `dir` (the secret readable by its owner only).
@@ -43,9 +46,11 @@ pub fn keygen(dir: &Path) -> Result<(PathBuf, PathBuf), String> {
     std::fs::File::open("/dev/urandom")
         .and_then(|mut f| f.read_exact(&mut seed))
         .map_err(|e| format!("/dev/urandom: {e}"))?;
-    write_private(&secret, &seed)?;
+    // The public key first: a failure then leaves no secret behind that
+    // would make every later keygen refuse.
     std::fs::write(&public, sign::public_key(&seed))
         .map_err(|e| format!("{}: {e}", public.display()))?;
+    write_private(&secret, &seed)?;
     Ok((secret, public))
 }
 
@@ -123,16 +128,17 @@ pub fn flat_image(elf: &[u8]) -> Result<(u32, Vec<u8>), String> {
     Ok((origin, image))
 }
 
-/// The update file of `image` for `board` at `version`, signed with the
-/// secret key `seed`.
+/// The update file of `image`, linked at `origin`, for `board` at
+/// `version`, signed with the secret key `seed`.
 pub fn signed_file(
     image: &[u8],
+    origin: u32,
     board: &str,
     version: Version,
     seed: &[u8; 32],
 ) -> Result<Vec<u8>, String> {
     let len = u32::try_from(image.len()).map_err(|_| "the image is over 4 GiB".to_string())?;
-    let trailer = Trailer::new(board, version, len)
+    let trailer = Trailer::new(board, version, len, origin)
         .ok_or_else(|| format!("{board:?} is no board name (ASCII, 1 to 16 bytes)"))?
         .encode();
     let signature = sign::signature(image, &trailer, seed);
@@ -209,30 +215,31 @@ mod tests {
         let seed = read_key(&secret).unwrap();
         assert_eq!(read_key(&public).unwrap(), sign::public_key(&seed));
         let version = Version::parse("1.2.3").unwrap();
-        let file = signed_file(&[0xAB; 100], "nucleo-f767zi", version, &seed).unwrap();
+        let file = signed_file(&[0xAB; 100], 0x0808_0000, "nucleo-f767zi", version, &seed).unwrap();
         assert_eq!(file.len(), 100 + TRAILER_LEN + SIGNATURE_LEN);
         let trailer: [u8; TRAILER_LEN] = file[100..164].try_into().unwrap();
         let t = Trailer::decode(&trailer).unwrap();
         assert_eq!(
-            (t.board_name(), t.version, t.image_len),
-            ("nucleo-f767zi", version, 100)
+            (t.board_name(), t.version, t.image_len, t.origin),
+            ("nucleo-f767zi", version, 100, 0x0808_0000)
         );
-        assert!(signed_file(&[0; 4], "", version, &seed).is_err());
+        assert!(signed_file(&[0; 4], 0, "", version, &seed).is_err());
         // And the device's own check takes it (the flash model's update
         // partition, the key read back from its file).
         use crate::flash_model::{Flash, Power};
         let power = Power::new();
-        let mut dfu = Flash::<2048, 32>::erased(2048, &power);
+        let mut dfu = Flash::<2048, 32>::erased(4096, &power);
         let mut state = Flash::<2048, 32>::erased(2048, &power);
         let mut aligned = [0; 32];
         let config = rri_update::FirmwareUpdaterConfig {
             dfu: &mut dfu,
             state: &mut state,
         };
-        let mut up = rri_update::Upload::begin(config, &mut aligned, file.len()).unwrap();
+        let mut up = rri_update::Upload::begin(config, &mut aligned, 2048, file.len()).unwrap();
         up.push(&file).unwrap();
         let running = rri_update::Running {
             board: "nucleo-f767zi",
+            origin: 0x0808_0000,
             version: Version::parse("1.0.0").unwrap(),
         };
         assert_eq!(

@@ -8,7 +8,8 @@
 //! | 24..30 | version: major, minor, patch (`u16` each) |
 //! | 30..32 | zero |
 //! | 32..36 | the image's length in bytes (what comes before the trailer) |
-//! | 36..64 | zero (room for what a later format needs; a non-zero byte refuses the file) |
+//! | 36..40 | the address the image is linked to run from (the active partition's start) |
+//! | 40..64 | zero (room for what a later format needs; a non-zero byte refuses the file) |
 //!
 //! The signature (64 bytes) follows the trailer and covers the image and
 //! the trailer: a file cannot be moved to another board or version by
@@ -89,6 +90,9 @@ impl Version {
 pub struct Running<'a> {
     /// The board's name, as the trailer writes it.
     pub board: &'a str,
+    /// Where its active partition starts: an image linked for another
+    /// address would crash at its first instruction.
+    pub origin: u32,
     /// Its version.
     pub version: Version,
 }
@@ -102,6 +106,8 @@ pub struct Trailer {
     pub version: Version,
     /// Bytes of the image before the trailer.
     pub image_len: u32,
+    /// The address it is linked to run from.
+    pub origin: u32,
 }
 
 /// Why a trailer is no trailer.
@@ -117,8 +123,9 @@ pub enum BadTrailer {
 
 impl Trailer {
     /// The trailer for `board` (at most [`BOARD_LEN`] bytes of ASCII;
-    /// `None` otherwise), `version` and an image of `image_len` bytes.
-    pub fn new(board: &str, version: Version, image_len: u32) -> Option<Trailer> {
+    /// `None` otherwise), `version` and an image of `image_len` bytes
+    /// linked at `origin`.
+    pub fn new(board: &str, version: Version, image_len: u32, origin: u32) -> Option<Trailer> {
         let name = board.as_bytes();
         if name.is_empty() || name.len() > BOARD_LEN || !name.iter().all(|b| b.is_ascii_graphic()) {
             return None;
@@ -129,19 +136,21 @@ impl Trailer {
             board: padded,
             version,
             image_len,
+            origin,
         })
     }
 
     /// Its 64 bytes.
     pub fn encode(&self) -> [u8; TRAILER_LEN] {
         let mut t = [0; TRAILER_LEN];
-        let fields: [(usize, &[u8]); 6] = [
+        let fields: [(usize, &[u8]); 7] = [
             (0, &MAGIC),
             (8, &self.board),
             (24, &self.version.major.to_le_bytes()),
             (26, &self.version.minor.to_le_bytes()),
             (28, &self.version.patch.to_le_bytes()),
             (32, &self.image_len.to_le_bytes()),
+            (36, &self.origin.to_le_bytes()),
         ];
         for (at, bytes) in fields {
             if let Some(to) = t.get_mut(at..at + bytes.len()) {
@@ -159,7 +168,8 @@ impl Trailer {
         }
         let (board, rest) = rest.split_at(BOARD_LEN);
         let (version, rest) = rest.split_at(8);
-        let (len, reserved) = rest.split_at(4);
+        let (len, rest) = rest.split_at(4);
+        let (origin, reserved) = rest.split_at(4);
         let u16_at = |i: usize| {
             u16::from_le_bytes([
                 version.get(i).copied().unwrap_or(0),
@@ -182,6 +192,8 @@ impl Trailer {
         padded.copy_from_slice(board);
         let mut l = [0; 4];
         l.copy_from_slice(len);
+        let mut o = [0; 4];
+        o.copy_from_slice(origin);
         Ok(Trailer {
             board: padded,
             version: Version {
@@ -190,6 +202,7 @@ impl Trailer {
                 patch: u16_at(4),
             },
             image_len: u32::from_le_bytes(l),
+            origin: u32::from_le_bytes(o),
         })
     }
 
@@ -244,7 +257,7 @@ mod tests {
 
     #[test]
     fn a_trailer_reads_back_and_every_bad_field_is_named() {
-        let t = Trailer::new("nucleo-f767zi", V, 212_000).unwrap();
+        let t = Trailer::new("nucleo-f767zi", V, 212_000, 0x0808_0000).unwrap();
         let bytes = t.encode();
         assert_eq!(Trailer::decode(&bytes), Ok(t));
         assert_eq!(t.board_name(), "nucleo-f767zi");
@@ -252,7 +265,7 @@ mod tests {
         b[0] ^= 1;
         assert_eq!(Trailer::decode(&b), Err(BadTrailer::Magic));
         let mut b = bytes;
-        b[40] = 1;
+        b[44] = 1;
         assert_eq!(Trailer::decode(&b), Err(BadTrailer::Reserved));
         let mut b = bytes;
         b[30] = 1;
@@ -263,7 +276,7 @@ mod tests {
         let mut b = bytes;
         b[23] = b'x'; // a byte after the name's end
         assert_eq!(Trailer::decode(&b), Err(BadTrailer::Board));
-        assert_eq!(Trailer::new("", V, 1), None);
-        assert_eq!(Trailer::new("a-board-name-too-long", V, 1), None);
+        assert_eq!(Trailer::new("", V, 1, 0), None);
+        assert_eq!(Trailer::new("a-board-name-too-long", V, 1, 0), None);
     }
 }

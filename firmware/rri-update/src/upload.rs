@@ -25,11 +25,13 @@ pub enum Refused {
         /// The length declared.
         declared: usize,
     },
-    /// The declared length does not fit the update partition.
+    /// The declared length does not fit: more than the active partition
+    /// (what the swap copies) or the update partition less its last
+    /// sector (the swap's scratch).
     TooLarge {
         /// The length declared.
         declared: usize,
-        /// The partition's bytes.
+        /// The most a file may have.
         capacity: usize,
     },
     /// More bytes came than were declared.
@@ -37,26 +39,37 @@ pub enum Refused {
         /// The length declared.
         declared: usize,
     },
-    /// Fewer bytes came than were declared (the upload was cut off), or
-    /// the trailer's image length does not match the file's.
+    /// Fewer bytes came than were declared (the upload was cut off).
     Truncated {
         /// Bytes received.
         received: usize,
         /// Bytes the file should have.
         expected: usize,
     },
+    /// The trailer's image length does not match the file's.
+    LengthMismatch {
+        /// Bytes of the file.
+        file: usize,
+        /// Bytes the trailer says the file has.
+        trailer: usize,
+    },
     /// No trailer of ours: not an update file.
     NotAnImage(BadTrailer),
     /// An image for another board.
     OtherBoard,
+    /// An image linked for another address than the active partition's.
+    OtherAddress,
     /// Older than the running image (allowed only when forced).
     Older,
     /// The signature does not verify with the key built into the
     /// firmware: unsigned, signed by another key, or altered.
     BadSignature,
-    /// The running image has not confirmed itself yet after a swap (a
-    /// second update now would lose the image to roll back to).
+    /// An update is marked already (waiting for its reset), or the
+    /// running image has not confirmed itself since its swap (a second
+    /// update now would lose the image to roll back to).
     NotConfirmed,
+    /// The buffer given for the state partition is not its write size.
+    Buffer,
     /// The flash refused a read, write or erase.
     Flash(NorFlashErrorKind),
 }
@@ -70,16 +83,21 @@ impl Refused {
             }
             Refused::TooLarge { .. } => "larger than the update partition",
             Refused::TooLong { .. } => "more bytes than the upload declared",
-            Refused::Truncated { .. } => "truncated: fewer bytes than the file says it has",
+            Refused::Truncated { .. } => "truncated: fewer bytes than the upload declared",
+            Refused::LengthMismatch { .. } => "the trailer's length does not match the file's",
             Refused::NotAnImage(BadTrailer::Magic) => "not an update file (no trailer)",
             Refused::NotAnImage(BadTrailer::Reserved) => {
                 "not an update file of this format (reserved bytes set)"
             }
             Refused::NotAnImage(BadTrailer::Board) => "not an update file (no board name)",
             Refused::OtherBoard => "an image for another board",
+            Refused::OtherAddress => "an image linked for another address than the active partition",
             Refused::Older => "older than the running image (force to install it)",
             Refused::BadSignature => "the signature does not verify with this device's key",
-            Refused::NotConfirmed => "the running image has not confirmed itself since its update",
+            Refused::NotConfirmed => {
+                "an update is marked already, or the running image has not confirmed itself since its update"
+            }
+            Refused::Buffer => "the state partition's buffer is not its write size",
             Refused::Flash(_) => "the flash refused an operation",
         }
     }
@@ -101,9 +119,12 @@ struct Stage([u8; STAGE]);
 
 /// An upload in progress. `begin`, then `push` the file's bytes in order,
 /// in pieces of any size, then `finish`. Dropping it changes nothing the
-/// bootloader reads.
+/// bootloader reads. After its first refusal every later call gets the
+/// same one: a stage is never written twice (a flash word is programmed
+/// once between erases).
 pub struct Upload<'d, DFU: NorFlash, STATE: NorFlash> {
     updater: BlockingFirmwareUpdater<'d, DFU, STATE>,
+    failed: Option<Refused>,
     declared: usize,
     received: usize,
     /// Bytes written to the partition (whole stages).
@@ -115,12 +136,14 @@ pub struct Upload<'d, DFU: NorFlash, STATE: NorFlash> {
 impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
     /// Starts an upload of a file of `declared` bytes into `config`'s
     /// update partition (`aligned`: a buffer of the state partition's
-    /// write size, as embassy-boot asks). Refused when it cannot hold a
-    /// trailer and a signature, does not fit, or the running image has
-    /// not confirmed itself.
+    /// write size, as embassy-boot asks; `active`: the active
+    /// partition's bytes, all the swap copies). Refused when it cannot
+    /// hold a trailer and a signature, does not fit, or an update is
+    /// pending.
     pub fn begin(
         config: FirmwareUpdaterConfig<DFU, STATE>,
         aligned: &'d mut [u8],
+        active: usize,
         declared: usize,
     ) -> Result<Self, Refused> {
         const {
@@ -132,8 +155,18 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
                 DFU::ERASE_SIZE.is_multiple_of(STAGE),
                 "a sector is whole stages"
             );
+            assert!(DFU::READ_SIZE == 1, "the trailer is read at any offset");
         }
-        let capacity = config.dfu.capacity();
+        if aligned.len() != STATE::WRITE_SIZE {
+            return Err(Refused::Buffer);
+        }
+        // The swap copies the active partition's bytes, and the update
+        // partition's last sector is its scratch; whole sectors only, so
+        // the last stage, padded, stays inside.
+        let dfu = config.dfu.capacity();
+        let capacity = active
+            .min(dfu.saturating_sub(DFU::ERASE_SIZE))
+            .saturating_sub(dfu % DFU::ERASE_SIZE);
         if declared <= TRAILER_LEN + SIGNATURE_LEN {
             return Err(Refused::TooShort { declared });
         }
@@ -147,6 +180,7 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
         }
         Ok(Upload {
             updater,
+            failed: None,
             declared,
             received: 0,
             written: 0,
@@ -162,7 +196,13 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
 
     /// The next piece of the file. Work: a copy of `bytes` and a flash
     /// write (with its sector's erase, the first time) per whole stage.
-    pub fn push(&mut self, mut bytes: &[u8]) -> Result<(), Refused> {
+    pub fn push(&mut self, bytes: &[u8]) -> Result<(), Refused> {
+        let r = self.failed.map_or_else(|| self.take(bytes), Err);
+        self.failed = r.err();
+        r
+    }
+
+    fn take(&mut self, mut bytes: &[u8]) -> Result<(), Refused> {
         if bytes.len() > self.declared - self.received {
             return Err(Refused::TooLong {
                 declared: self.declared,
@@ -209,6 +249,9 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
         key: &[u8; 32],
         force: bool,
     ) -> Result<Trailer, Refused> {
+        if let Some(refused) = self.failed {
+            return Err(refused);
+        }
         if self.received != self.declared {
             return Err(Refused::Truncated {
                 received: self.received,
@@ -224,13 +267,16 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
             .saturating_add(TRAILER_LEN)
             .saturating_add(SIGNATURE_LEN);
         if expected != self.declared {
-            return Err(Refused::Truncated {
-                received: self.declared,
-                expected,
+            return Err(Refused::LengthMismatch {
+                file: self.declared,
+                trailer: expected,
             });
         }
         if trailer.board_name() != running.board {
             return Err(Refused::OtherBoard);
+        }
+        if trailer.origin != running.origin {
+            return Err(Refused::OtherAddress);
         }
         if trailer.version < running.version && !force {
             return Err(Refused::Older);
@@ -269,6 +315,9 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
 /// The state the bootloader left (`Swap`: this image was just swapped in
 /// and has not confirmed itself; a reset now rolls it back).
 pub fn state<STATE: NorFlash>(state: STATE, aligned: &mut [u8]) -> Result<State, Refused> {
+    if aligned.len() != STATE::WRITE_SIZE {
+        return Err(Refused::Buffer);
+    }
     BlockingFirmwareState::new(state, aligned)
         .get_state()
         .map_err(Refused::from)
@@ -278,6 +327,9 @@ pub fn state<STATE: NorFlash>(state: STATE, aligned: &mut [u8]) -> Result<State,
 /// controller, or passed its self-test): from now on a reset boots it,
 /// and the previous image is no longer kept to roll back to.
 pub fn confirm<STATE: NorFlash>(state: STATE, aligned: &mut [u8]) -> Result<(), Refused> {
+    if aligned.len() != STATE::WRITE_SIZE {
+        return Err(Refused::Buffer);
+    }
     BlockingFirmwareState::new(state, aligned)
         .mark_booted()
         .map_err(Refused::from)

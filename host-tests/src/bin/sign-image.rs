@@ -89,7 +89,10 @@ fn main() -> ExitCode {
 fn run(args: Args) -> Result<(), String> {
     match args.command {
         Command::Keygen { dir } => {
-            let dir = dir.unwrap_or_else(key_dir);
+            let dir = match dir {
+                Some(d) => d,
+                None => key_dir()?,
+            };
             let (secret, public) = update_file::keygen(&dir)?;
             println!(
                 "secret key: {} (keep it; it signs every image)",
@@ -114,10 +117,13 @@ fn run(args: Args) -> Result<(), String> {
             };
             let parsed = Version::parse(&version)
                 .ok_or_else(|| format!("{version:?} is not a version (major.minor.patch)"))?;
-            let seed = read_key(&key.unwrap_or_else(|| key_dir().join(SECRET)))?;
+            let seed = match key {
+                Some(k) => read_key(&k)?,
+                None => read_key(&key_dir()?.join(SECRET))?,
+            };
             let elf_bytes = std::fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
             let (origin, image) = update_file::flat_image(&elf_bytes)?;
-            let file = update_file::signed_file(&image, board.name(), parsed, &seed)?;
+            let file = update_file::signed_file(&image, origin, board.name(), parsed, &seed)?;
             std::fs::write(&out, &file).map_err(|e| format!("{}: {e}", out.display()))?;
             println!(
                 "{}: {} bytes of image from {origin:#010x} for {} version {version}, signed ({} bytes)",
@@ -130,7 +136,10 @@ fn run(args: Args) -> Result<(), String> {
         }
         Command::Check { file, public } => {
             let bytes = std::fs::read(&file).map_err(|e| format!("{}: {e}", file.display()))?;
-            let key = read_key(&public.unwrap_or_else(|| key_dir().join(PUBLIC)))?;
+            let key = match public {
+                Some(p) => read_key(&p)?,
+                None => read_key(&key_dir()?.join(PUBLIC))?,
+            };
             let n = bytes.len();
             let trailer: [u8; TRAILER_LEN] = n
                 .checked_sub(TRAILER_LEN + SIGNATURE_LEN)
@@ -139,19 +148,23 @@ fn run(args: Args) -> Result<(), String> {
                 .ok_or("too short to be an update file")?;
             let t = Trailer::decode(&trailer).map_err(|e| format!("not an update file: {e:?}"))?;
             println!(
-                "{}: for {} version {}.{}.{}, {} bytes of image",
+                "{}: for {} version {}.{}.{}, {} bytes of image linked at {:#010x}",
                 file.display(),
                 t.board_name(),
                 t.version.major,
                 t.version.minor,
                 t.version.patch,
-                t.image_len
+                t.image_len,
+                t.origin
             );
-            // The device's own check, on the flash model: a running image
-            // of the file's board at version 0.0.0.
+            // The device's own check of the file's form and signature, on
+            // the flash model. What only a device knows is not checked
+            // here: its board, its partitions' sizes and its version (the
+            // file is taken as for the board and address it names, by a
+            // device at version 0.0.0).
             let power = Power::new();
             let size = n.div_ceil(2048) * 2048;
-            let mut dfu = Flash::<2048, 32>::erased(size, &power);
+            let mut dfu = Flash::<2048, 32>::erased(size + 2048, &power);
             let mut state = Flash::<2048, 32>::erased(2048, &power);
             let mut aligned = [0; 32];
             let config = rri_update::FirmwareUpdaterConfig {
@@ -160,6 +173,7 @@ fn run(args: Args) -> Result<(), String> {
             };
             let running = Running {
                 board: t.board_name(),
+                origin: t.origin,
                 version: Version {
                     major: 0,
                     minor: 0,
@@ -167,11 +181,11 @@ fn run(args: Args) -> Result<(), String> {
                 },
             };
             let mut up =
-                Upload::begin(config, &mut aligned, n).map_err(|e| e.text().to_string())?;
+                Upload::begin(config, &mut aligned, size, n).map_err(|e| e.text().to_string())?;
             up.push(&bytes).map_err(|e| e.text().to_string())?;
             up.finish(&running, &key, false)
                 .map_err(|e| format!("the device would refuse it: {}", e.text()))?;
-            println!("signature: verifies with the public key");
+            println!("signature: verifies with the public key (board, version and size are the device's to check)");
             Ok(())
         }
     }
