@@ -156,19 +156,20 @@ impl<'a> CounterLine<'a> {
 
     /// The whole head of the group of `family` (its first word).
     pub fn head(&self, family: &str) -> Option<&'a str> {
-        self.groups
-            .iter()
-            .find(|(h, _)| h.split_whitespace().next() == Some(family))
-            .map(|(h, _)| *h)
+        self.group(family).map(|(h, _)| *h)
     }
 
     /// `key`'s value in the group of `family`.
     pub fn get(&self, family: &str, key: &str) -> Option<u64> {
-        let (_, pairs) = self
-            .groups
-            .iter()
-            .find(|(h, _)| h.split_whitespace().next() == Some(family))?;
+        let (_, pairs) = self.group(family)?;
         pairs.iter().find(|(k, _)| *k == key)?.1.parse().ok()
+    }
+
+    /// The group whose head starts with `family`.
+    fn group(&self, family: &str) -> Option<&(&'a str, Vec<(&'a str, &'a str)>)> {
+        self.groups
+            .iter()
+            .find(|(h, _)| h.split_whitespace().next() == Some(family))
     }
 
     /// Every `(family, key)` in the line's order.

@@ -161,12 +161,11 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
             return Err(Refused::Buffer);
         }
         // The swap copies the active partition's bytes, and the update
-        // partition's last sector is its scratch; whole sectors only, so
-        // the last stage, padded, stays inside.
+        // partition's last whole sector is its scratch; counting whole
+        // sectors only, the last stage, padded, stays inside.
         let dfu = config.dfu.capacity();
-        let capacity = active
-            .min(dfu.saturating_sub(DFU::ERASE_SIZE))
-            .saturating_sub(dfu % DFU::ERASE_SIZE);
+        let whole = dfu - dfu % DFU::ERASE_SIZE;
+        let capacity = active.min(whole.saturating_sub(DFU::ERASE_SIZE));
         if declared <= TRAILER_LEN + SIGNATURE_LEN {
             return Err(Refused::TooShort { declared });
         }
