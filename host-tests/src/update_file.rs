@@ -128,6 +128,18 @@ pub fn flat_image(elf: &[u8]) -> Result<(u32, Vec<u8>), String> {
     Ok((origin, image))
 }
 
+/// rri-sensor's version, from its Cargo.toml (what an image built from
+/// this checkout says it is).
+pub fn sensor_version() -> Result<String, String> {
+    let path = crate::workspace().join("firmware/rri-sensor/Cargo.toml");
+    let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    text.lines()
+        .find_map(|l| l.strip_prefix("version = \""))
+        .and_then(|l| l.strip_suffix('"'))
+        .map(str::to_string)
+        .ok_or_else(|| format!("{}: no version line", path.display()))
+}
+
 /// The update file of `image`, linked at `origin`, for `board` at
 /// `version`, signed with the secret key `seed`.
 pub fn signed_file(
@@ -230,12 +242,11 @@ mod tests {
         let power = Power::new();
         let mut dfu = Flash::<2048, 32>::erased(4096, &power);
         let mut state = Flash::<2048, 32>::erased(2048, &power);
-        let mut aligned = [0; 32];
         let config = rri_update::FirmwareUpdaterConfig {
             dfu: &mut dfu,
             state: &mut state,
         };
-        let mut up = rri_update::Upload::begin(config, &mut aligned, 2048, file.len()).unwrap();
+        let mut up = rri_update::Upload::begin(config, 2048, file.len()).unwrap();
         up.push(&file).unwrap();
         let running = rri_update::Running {
             board: "nucleo-f767zi",

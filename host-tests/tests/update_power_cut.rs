@@ -110,12 +110,11 @@ impl Chip {
         declared: usize,
         force: bool,
     ) -> Result<Trailer, Refused> {
-        let mut aligned = [0; WORD];
         let config = FirmwareUpdaterConfig {
             dfu: &mut self.dfu,
             state: &mut self.state,
         };
-        let mut up = Upload::begin(config, &mut aligned, ACTIVE, declared)?;
+        let mut up = Upload::begin(config, ACTIVE, declared)?;
         for piece in bytes.chunks(1000) {
             up.push(piece)?;
         }
@@ -261,12 +260,11 @@ fn unsigned_altered_other_board_older_and_short_files_are_refused_and_nothing_is
     let mut chip = Chip::with(&a);
     let state = chip.state.bytes().to_vec();
     {
-        let mut aligned = [0; WORD];
         let config = FirmwareUpdaterConfig {
             dfu: &mut chip.dfu,
             state: &mut chip.state,
         };
-        let mut up = Upload::begin(config, &mut aligned, ACTIVE, n).unwrap();
+        let mut up = Upload::begin(config, ACTIVE, n).unwrap();
         up.push(&b[..1500]).unwrap();
         let too_long = Err(Refused::TooLong { declared: n });
         assert_eq!(up.push(&vec![0; n]), too_long);
@@ -275,14 +273,14 @@ fn unsigned_altered_other_board_older_and_short_files_are_refused_and_nothing_is
     assert_unmarked(&mut chip, &a, &state);
     // A buffer of the wrong size for the state partition is refused, not
     // a panic inside embassy-boot.
-    let config = FirmwareUpdaterConfig {
-        dfu: &mut chip.dfu,
-        state: &mut chip.state,
-    };
-    assert!(matches!(
-        Upload::begin(config, &mut [0; 8], ACTIVE, n),
+    assert_eq!(
+        rri_update::state(&mut chip.state, &mut [0; 8]),
         Err(Refused::Buffer)
-    ));
+    );
+    assert_eq!(
+        rri_update::confirm(&mut chip.state, &mut [0; 8]),
+        Err(Refused::Buffer)
+    );
 }
 
 /// The whole way, no cut: upload, swap, the new image confirms itself;

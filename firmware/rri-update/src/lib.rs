@@ -26,12 +26,14 @@
 
 #![no_std]
 
+mod device;
 pub mod image;
 mod upload;
 
+pub use device::{Device, Outcome, Receive};
 pub use embassy_boot::{FirmwareUpdaterConfig, State};
 pub use image::{Running, Trailer, Version, SIGNATURE_LEN, TRAILER_LEN};
-pub use upload::{confirm, state, Refused, Upload, STAGE};
+pub use upload::{confirm, state, Refused, Upload, STAGE, WORD_MAX};
 
 #[cfg(feature = "sign")]
 pub mod sign;

@@ -4,11 +4,8 @@
 //! state partition as it was: the bootloader boots the running image.
 
 use crate::image::{BadTrailer, Running, Trailer, SIGNATURE_LEN, TRAILER_LEN};
-use embassy_boot::{
-    BlockingFirmwareState, BlockingFirmwareUpdater, FirmwareUpdaterConfig, FirmwareUpdaterError,
-    State,
-};
-use embedded_storage::nor_flash::{NorFlash, NorFlashErrorKind};
+use embassy_boot::{BlockingFirmwareState, FirmwareUpdaterConfig, FirmwareUpdaterError, State};
+use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
 
 /// Bytes gathered before each write to the update partition: a multiple of
 /// every board's flash write size (F7: 16, H7: 32; checked at build time)
@@ -70,6 +67,8 @@ pub enum Refused {
     NotConfirmed,
     /// The buffer given for the state partition is not its write size.
     Buffer,
+    /// Bytes or a finish without an upload begun (or after it ended).
+    NoUpload,
     /// The flash refused a read, write or erase.
     Flash(NorFlashErrorKind),
 }
@@ -98,6 +97,7 @@ impl Refused {
                 "an update is marked already, or the running image has not confirmed itself since its update"
             }
             Refused::Buffer => "the state partition's buffer is not its write size",
+            Refused::NoUpload => "no upload in progress",
             Refused::Flash(_) => "the flash refused an operation",
         }
     }
@@ -117,32 +117,44 @@ impl From<FirmwareUpdaterError> for Refused {
 #[repr(C, align(32))]
 struct Stage([u8; STAGE]);
 
+/// The state partition's write buffer, on the same alignment (sliced to
+/// its write size; every board's is at most [`WORD_MAX`]).
+#[repr(C, align(32))]
+struct Word([u8; WORD_MAX]);
+
+/// The largest state-partition write size an upload takes (the H743's
+/// flash word is 32 bytes).
+pub const WORD_MAX: usize = 32;
+
 /// An upload in progress. `begin`, then `push` the file's bytes in order,
-/// in pieces of any size, then `finish`. Dropping it changes nothing the
-/// bootloader reads. After its first refusal every later call gets the
-/// same one: a stage is never written twice (a flash word is programmed
-/// once between erases).
-pub struct Upload<'d, DFU: NorFlash, STATE: NorFlash> {
-    updater: BlockingFirmwareUpdater<'d, DFU, STATE>,
+/// in pieces of any size, then `finish`. It owns its two partitions (a
+/// board's are handles on its flash), so it can be kept between the
+/// pieces of a request without borrowing anything. Dropping it changes
+/// nothing the bootloader reads. After its first refusal every later
+/// call gets the same one: a stage is never written twice (a flash word
+/// is programmed once between erases).
+pub struct Upload<DFU: NorFlash, STATE: NorFlash> {
+    dfu: DFU,
+    state: STATE,
+    word: Word,
     failed: Option<Refused>,
     declared: usize,
     received: usize,
     /// Bytes written to the partition (whole stages).
     written: usize,
+    /// Sectors of the update partition erased so far (from its start).
+    erased: usize,
     stage: Stage,
     staged: usize,
 }
 
-impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
+impl<DFU: NorFlash, STATE: NorFlash> Upload<DFU, STATE> {
     /// Starts an upload of a file of `declared` bytes into `config`'s
-    /// update partition (`aligned`: a buffer of the state partition's
-    /// write size, as embassy-boot asks; `active`: the active
-    /// partition's bytes, all the swap copies). Refused when it cannot
-    /// hold a trailer and a signature, does not fit, or an update is
-    /// pending.
+    /// update partition (`active`: the active partition's bytes, all the
+    /// swap copies). Refused when it cannot hold a trailer and a
+    /// signature, does not fit, or an update is pending.
     pub fn begin(
         config: FirmwareUpdaterConfig<DFU, STATE>,
-        aligned: &'d mut [u8],
         active: usize,
         declared: usize,
     ) -> Result<Self, Refused> {
@@ -156,9 +168,10 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
                 "a sector is whole stages"
             );
             assert!(DFU::READ_SIZE == 1, "the trailer is read at any offset");
-        }
-        if aligned.len() != STATE::WRITE_SIZE {
-            return Err(Refused::Buffer);
+            assert!(
+                STATE::WRITE_SIZE <= WORD_MAX,
+                "the state partition's write size is at most WORD_MAX"
+            );
         }
         // The swap copies the active partition's bytes, and the update
         // partition's last whole sector is its scratch; counting whole
@@ -172,20 +185,35 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
         if declared > capacity {
             return Err(Refused::TooLarge { declared, capacity });
         }
-        let mut updater = BlockingFirmwareUpdater::new(config, aligned);
-        match updater.get_state()? {
-            State::Swap => return Err(Refused::NotConfirmed),
-            State::Boot | State::Revert | State::DfuDetach => {}
-        }
-        Ok(Upload {
-            updater,
+        let mut up = Upload {
+            dfu: config.dfu,
+            state: config.state,
+            word: Word([0; WORD_MAX]),
             failed: None,
             declared,
             received: 0,
             written: 0,
+            erased: 0,
             stage: Stage([0; STAGE]),
             staged: 0,
-        })
+        };
+        match up.state_view().get_state()? {
+            State::Swap => return Err(Refused::NotConfirmed),
+            State::Boot | State::Revert | State::DfuDetach => {}
+        }
+        Ok(up)
+    }
+
+    /// embassy-boot's view of the state partition, through this upload's
+    /// word buffer.
+    fn state_view(&mut self) -> BlockingFirmwareState<'_, &mut STATE> {
+        let word = self.word.0.get_mut(..STATE::WRITE_SIZE).unwrap_or(&mut []);
+        BlockingFirmwareState::new(&mut self.state, word)
+    }
+
+    /// The declared length.
+    pub fn declared(&self) -> usize {
+        self.declared
     }
 
     /// Bytes received so far.
@@ -223,7 +251,9 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
         Ok(())
     }
 
-    /// Writes the stage (its unfilled end erased-value) at `written`.
+    /// Writes the stage (its unfilled end erased-value) at `written`,
+    /// erasing each sector the first time a stage enters it (as
+    /// embassy-boot's `write_firmware` does: its writes are these).
     fn flush(&mut self) -> Result<(), Refused> {
         if self.staged == 0 {
             return Ok(());
@@ -231,7 +261,17 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
         if let Some(rest) = self.stage.0.get_mut(self.staged..) {
             rest.fill(0xFF);
         }
-        self.updater.write_firmware(self.written, &self.stage.0)?;
+        let sector = self.written / DFU::ERASE_SIZE;
+        if sector >= self.erased {
+            let from = sector * DFU::ERASE_SIZE;
+            self.dfu
+                .erase(offset(from)?, offset(from + DFU::ERASE_SIZE)?)
+                .map_err(flash)?;
+            self.erased = sector + 1;
+        }
+        self.dfu
+            .write(offset(self.written)?, &self.stage.0)
+            .map_err(flash)?;
         self.written += STAGE;
         self.staged = 0;
         Ok(())
@@ -286,7 +326,7 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
         let key = salty::PublicKey::try_from(key).map_err(|_| Refused::BadSignature)?;
         key.verify(&digest, &salty::Signature::from(&signature))
             .map_err(|_| Refused::BadSignature)?;
-        self.updater.mark_updated()?;
+        self.state_view().mark_updated()?;
         Ok(trailer)
     }
 
@@ -306,9 +346,17 @@ impl<'d, DFU: NorFlash, STATE: NorFlash> Upload<'d, DFU, STATE> {
     }
 
     fn read(&mut self, at: usize, buf: &mut [u8]) -> Result<(), Refused> {
-        let at = u32::try_from(at).map_err(|_| Refused::Flash(NorFlashErrorKind::OutOfBounds))?;
-        self.updater.read_dfu(at, buf).map_err(Refused::from)
+        self.dfu.read(offset(at)?, buf).map_err(flash)
     }
+}
+
+/// A partition offset, as the flash traits take it.
+fn offset(at: usize) -> Result<u32, Refused> {
+    u32::try_from(at).map_err(|_| Refused::Flash(NorFlashErrorKind::OutOfBounds))
+}
+
+fn flash<E: NorFlashError>(e: E) -> Refused {
+    Refused::Flash(e.kind())
 }
 
 /// The state the bootloader left (`Swap`: this image was just swapped in

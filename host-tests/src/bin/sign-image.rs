@@ -113,7 +113,7 @@ fn run(args: Args) -> Result<(), String> {
         } => {
             let version = match version {
                 Some(v) => v,
-                None => sensor_version()?,
+                None => update_file::sensor_version()?,
             };
             let parsed = Version::parse(&version)
                 .ok_or_else(|| format!("{version:?} is not a version (major.minor.patch)"))?;
@@ -166,7 +166,6 @@ fn run(args: Args) -> Result<(), String> {
             let size = n.div_ceil(2048) * 2048;
             let mut dfu = Flash::<2048, 32>::erased(size + 2048, &power);
             let mut state = Flash::<2048, 32>::erased(2048, &power);
-            let mut aligned = [0; 32];
             let config = rri_update::FirmwareUpdaterConfig {
                 dfu: &mut dfu,
                 state: &mut state,
@@ -180,8 +179,7 @@ fn run(args: Args) -> Result<(), String> {
                     patch: 0,
                 },
             };
-            let mut up =
-                Upload::begin(config, &mut aligned, size, n).map_err(|e| e.text().to_string())?;
+            let mut up = Upload::begin(config, size, n).map_err(|e| e.text().to_string())?;
             up.push(&bytes).map_err(|e| e.text().to_string())?;
             up.finish(&running, &key, false)
                 .map_err(|e| format!("the device would refuse it: {}", e.text()))?;
@@ -189,15 +187,4 @@ fn run(args: Args) -> Result<(), String> {
             Ok(())
         }
     }
-}
-
-/// rri-sensor's version, from its Cargo.toml.
-fn sensor_version() -> Result<String, String> {
-    let path = host_tests::workspace().join("firmware/rri-sensor/Cargo.toml");
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    text.lines()
-        .find_map(|l| l.strip_prefix("version = \""))
-        .and_then(|l| l.strip_suffix('"'))
-        .map(str::to_string)
-        .ok_or_else(|| format!("{}: no version line", path.display()))
 }
