@@ -61,6 +61,13 @@ fn means(table: &str) -> String {
 }
 
 fn main() {
+    // Update in the cell (issue 43): the upload's path in the service
+    // (cfg `rri_update`) where the board has update partitions, and on
+    // the host (its tests); a board without them carries none of it.
+    println!("cargo::rustc-check-cfg=cfg(rri_update)");
+    if std::env::var("DEP_RRI_HAL_BOARD_UPDATES").as_deref() == Ok("1") {
+        println!("cargo:rustc-cfg=rri_update");
+    }
     let src = std::path::Path::new("src/page.html");
     println!("cargo:rerun-if-changed={}", src.display());
     println!("cargo:rerun-if-changed=src/counters.rs");

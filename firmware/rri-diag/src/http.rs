@@ -1,10 +1,12 @@
 //! The smallest HTTP/1.1 server side the diagnostics need: a request
 //! parser with fixed limits ([`Parser`]) and the response head
-//! ([`head`]). Read-only by construction: `GET` and `HEAD` of three
-//! paths, every other request an error status, one request per
-//! connection (`Connection: close`), so nothing on the device can be
-//! changed through this port and no client can hold more than one
-//! request's worth of state.
+//! ([`head`]). `GET` and `HEAD` of three paths; with updates built in
+//! ([`Parser::with_updates`]) also `PUT /firmware` with a
+//! `Content-Length` (the body is the service's, [`Parser::body_start`]
+//! says where it begins), the one request that changes anything, and
+//! only what a signature allows (`rri_update`). Every other request is an
+//! error status, one request per connection (`Connection: close`), so no
+//! client can hold more than one request's worth of state.
 //!
 //! Limits (each answered with its status, then the connection closes):
 //! a request line longer than [`LINE_MAX`] bytes (414), a header section
@@ -35,6 +37,8 @@ pub enum Route {
     Json,
     /// `GET /metrics`: Prometheus text exposition.
     Metrics,
+    /// `PUT /firmware`: an update file (with updates built in).
+    Firmware,
 }
 
 impl Route {
@@ -44,6 +48,7 @@ impl Route {
             Route::Page => "/",
             Route::Json => "/status.json",
             Route::Metrics => "/metrics",
+            Route::Firmware => "/firmware",
         }
     }
 
@@ -53,6 +58,7 @@ impl Route {
             Route::Page => "text/html; charset=utf-8",
             Route::Json => "application/json",
             Route::Metrics => "text/plain; version=0.0.4; charset=utf-8",
+            Route::Firmware => "text/plain; charset=utf-8",
         }
     }
 }
@@ -67,6 +73,17 @@ pub struct Request {
     /// The client takes gzip (`Accept-Encoding` names it): the page is
     /// kept compressed ([`super::page`]). `gzip;q=0` is taken as yes.
     pub gzip: bool,
+    /// `PUT /firmware`: the body that follows the head.
+    pub body: Option<Body>,
+}
+
+/// The body of a `PUT /firmware`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Body {
+    /// Its `Content-Length`.
+    pub length: u32,
+    /// `?force=1`: an older version is taken too.
+    pub force: bool,
 }
 
 /// Every status the service sends.
@@ -93,6 +110,21 @@ pub enum Status {
     /// 503: every connection slot is busy (sent by a slot that has to
     /// turn a connection away).
     Unavailable,
+    /// 405 for `/firmware`, which takes `PUT` alone.
+    PutOnly,
+    /// 403: an update file whose signature does not verify.
+    Forbidden,
+    /// 409: an update that conflicts with the device's state (older than
+    /// the running image, one marked already, another upload arriving).
+    Conflict,
+    /// 411: a `PUT` without a `Content-Length`.
+    LengthRequired,
+    /// 413: an update file larger than the update partition.
+    ContentTooLarge,
+    /// 422: an update file that is not one for this device.
+    Unprocessable,
+    /// 500: the flash refused an operation.
+    InternalError,
 }
 
 impl Status {
@@ -109,6 +141,13 @@ impl Status {
             Status::NotImplemented => 501,
             Status::Unavailable => 503,
             Status::VersionNotSupported => 505,
+            Status::PutOnly => 405,
+            Status::Forbidden => 403,
+            Status::Conflict => 409,
+            Status::LengthRequired => 411,
+            Status::ContentTooLarge => 413,
+            Status::Unprocessable => 422,
+            Status::InternalError => 500,
         }
     }
 
@@ -125,6 +164,13 @@ impl Status {
             Status::NotImplemented => "Not Implemented",
             Status::Unavailable => "Service Unavailable",
             Status::VersionNotSupported => "HTTP Version Not Supported",
+            Status::PutOnly => "Method Not Allowed",
+            Status::Forbidden => "Forbidden",
+            Status::Conflict => "Conflict",
+            Status::LengthRequired => "Length Required",
+            Status::ContentTooLarge => "Content Too Large",
+            Status::Unprocessable => "Unprocessable Content",
+            Status::InternalError => "Internal Server Error",
         }
     }
 }
@@ -161,17 +207,41 @@ pub struct Parser {
     stage: Stage,
     line: heapless::Vec<u8, LINE_MAX>,
     header_bytes: usize,
-    /// Bytes of `accept-encoding:` matched at the start of this header
-    /// line; [`NOT_IT`] once it is another header.
-    name_at: u8,
+    /// `PUT /firmware` is a request (else 405, as any other `PUT`).
+    updates: bool,
+    /// The header line's name so far, lower-cased (a longer name is none
+    /// of ours: [`Field::Other`]).
+    name: heapless::Vec<u8, NAME_MAX>,
+    field: Field,
     /// Bytes of `gzip` matched in an `Accept-Encoding` value.
     gzip_at: u8,
+    /// `Content-Length`: whether one was sent, its value so far (`None`
+    /// before its first digit), and whether it was malformed (a second
+    /// one, a non-digit, more than `u32`, no digit).
+    length_sent: bool,
+    length: Option<u64>,
+    length_bad: bool,
+    /// A `Transfer-Encoding` was sent (a body in chunks: not taken).
+    transfer: bool,
+    /// Where in the last [`Parser::feed`]'s bytes the verdict came.
+    body_start: usize,
 }
 
-/// The header this parser looks at, and the one token it looks for.
-const ACCEPT_ENCODING: &[u8] = b"accept-encoding:";
+/// Which header line the parser is in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Field {
+    /// Reading its name.
+    Name,
+    AcceptEncoding,
+    ContentLength,
+    TransferEncoding,
+    /// A header this parser does not read.
+    Other,
+}
+
+/// The longest header name the parser reads (`transfer-encoding`).
+const NAME_MAX: usize = 17;
 const GZIP: &[u8] = b"gzip";
-const NOT_IT: u8 = u8::MAX;
 
 impl Default for Parser {
     fn default() -> Self {
@@ -180,39 +250,107 @@ impl Default for Parser {
 }
 
 impl Parser {
-    /// Waiting for a request line.
+    /// Waiting for a request line; read-only (`PUT` is 405).
     pub const fn new() -> Self {
         Parser {
             stage: Stage::Line { empty: 0 },
             line: heapless::Vec::new(),
             header_bytes: 0,
-            name_at: 0,
+            updates: false,
+            name: heapless::Vec::new(),
+            field: Field::Name,
             gzip_at: 0,
+            length_sent: false,
+            length: None,
+            length_bad: false,
+            transfer: false,
+            body_start: 0,
         }
     }
 
-    /// Follows one header byte (not a line end) for `Accept-Encoding:
-    /// …gzip…`; `true` once the token is seen.
-    fn accept_encoding(&mut self, b: u8) -> bool {
-        let Some(&want) = ACCEPT_ENCODING.get(usize::from(self.name_at)) else {
-            if self.name_at == NOT_IT {
-                return false;
+    /// Waiting for a request line; `PUT /firmware` is a request.
+    pub const fn with_updates() -> Self {
+        let mut p = Self::new();
+        p.updates = true;
+        p
+    }
+
+    /// Where, in the bytes of the [`Parser::feed`] that gave the verdict,
+    /// the head ended: what follows is the start of a `PUT`'s body.
+    pub fn body_start(&self) -> usize {
+        self.body_start
+    }
+
+    /// Follows one byte of a header line (not a line end).
+    fn header_field(&mut self, b: u8, request: &mut Request) {
+        match self.field {
+            Field::Name if b == b':' => {
+                self.field = match self.name.as_slice() {
+                    b"accept-encoding" => Field::AcceptEncoding,
+                    b"content-length" => {
+                        self.length_bad |= self.length_sent;
+                        self.length_sent = true;
+                        Field::ContentLength
+                    }
+                    b"transfer-encoding" => {
+                        self.transfer = true;
+                        Field::TransferEncoding
+                    }
+                    _ => Field::Other,
+                };
             }
-            // In the value: match `gzip`, case-insensitively.
-            let next = GZIP.get(usize::from(self.gzip_at)).copied();
-            self.gzip_at = if next == Some(b.to_ascii_lowercase()) {
-                self.gzip_at + 1
-            } else {
-                u8::from(b.eq_ignore_ascii_case(&b'g'))
-            };
-            return usize::from(self.gzip_at) == GZIP.len();
-        };
-        self.name_at = if b.to_ascii_lowercase() == want {
-            self.name_at + 1
-        } else {
-            NOT_IT
-        };
-        false
+            Field::Name => {
+                if self.name.push(b.to_ascii_lowercase()).is_err() {
+                    self.field = Field::Other;
+                }
+            }
+            Field::AcceptEncoding => {
+                // Match `gzip`, case-insensitively, anywhere in the value.
+                let next = GZIP.get(usize::from(self.gzip_at)).copied();
+                self.gzip_at = if next == Some(b.to_ascii_lowercase()) {
+                    self.gzip_at + 1
+                } else {
+                    u8::from(b.eq_ignore_ascii_case(&b'g'))
+                };
+                request.gzip |= usize::from(self.gzip_at) == GZIP.len();
+            }
+            Field::ContentLength => match b {
+                b' ' | b'\t' => {}
+                b'0'..=b'9' => {
+                    let n = self
+                        .length
+                        .unwrap_or(0)
+                        .saturating_mul(10)
+                        .saturating_add(u64::from(b - b'0'));
+                    self.length_bad |= n > u64::from(u32::MAX);
+                    self.length = Some(n.min(u64::from(u32::MAX) + 1));
+                }
+                _ => self.length_bad = true,
+            },
+            Field::TransferEncoding | Field::Other => {}
+        }
+    }
+
+    /// At the end of the header lines: the verdict on `request`.
+    fn headers_done(&self, request: Request) -> Parsed {
+        if request.route != Route::Firmware {
+            return Parsed::Request(request);
+        }
+        if self.transfer {
+            return Parsed::Refused(Status::NotImplemented);
+        }
+        match (self.length, self.length_bad) {
+            (_, true) => Parsed::Refused(Status::BadRequest),
+            (None, false) if self.length_sent => Parsed::Refused(Status::BadRequest),
+            (None, false) => Parsed::Refused(Status::LengthRequired),
+            (Some(n), false) => {
+                let mut request = request;
+                if let Some(body) = request.body.as_mut() {
+                    body.length = u32::try_from(n).unwrap_or(u32::MAX);
+                }
+                Parsed::Request(request)
+            }
+        }
     }
 
     /// The verdict so far, without more bytes.
@@ -226,7 +364,7 @@ impl Parser {
     /// Takes `bytes`; the verdict once there is one (bytes after it are
     /// ignored: one request per connection).
     pub fn feed(&mut self, bytes: &[u8]) -> Parsed {
-        for &b in bytes {
+        for (i, &b) in bytes.iter().enumerate() {
             let next = match self.stage {
                 Stage::Done(p) => return p,
                 Stage::Line { empty } => self.line_byte(b, empty),
@@ -235,6 +373,9 @@ impl Parser {
                     request,
                 } => self.header_byte(b, at_line_start, request),
             };
+            if matches!(next, Stage::Done(_)) {
+                self.body_start = i + 1;
+            }
             self.stage = next;
         }
         self.parsed()
@@ -251,7 +392,7 @@ impl Parser {
                     Stage::Done(Parsed::Refused(Status::BadRequest))
                 };
             }
-            return match request_line(line) {
+            return match request_line(line, self.updates) {
                 Ok(request) => Stage::Headers {
                     at_line_start: true,
                     request,
@@ -273,9 +414,11 @@ impl Parser {
         let mut request = request;
         match b {
             // An empty line ends the headers (CRLF, or a bare LF).
-            b'\n' if at_line_start => Stage::Done(Parsed::Request(request)),
+            b'\n' if at_line_start => Stage::Done(self.headers_done(request)),
             b'\n' => {
-                (self.name_at, self.gzip_at) = (0, 0);
+                self.length_bad |= self.field == Field::ContentLength && self.length.is_none();
+                self.name.clear();
+                (self.field, self.gzip_at) = (Field::Name, 0);
                 Stage::Headers {
                     at_line_start: true,
                     request,
@@ -289,7 +432,7 @@ impl Parser {
             // A NUL anywhere in a header is malformed (RFC 9110 §5.5).
             0 => Stage::Done(Parsed::Refused(Status::BadRequest)),
             _ => {
-                request.gzip |= self.accept_encoding(b);
+                self.header_field(b, &mut request);
                 Stage::Headers {
                     at_line_start: false,
                     request,
@@ -309,7 +452,7 @@ const KNOWN_METHODS: [&[u8]; 7] = [
 ];
 
 /// `METHOD SP request-target SP HTTP-version` (RFC 9112 §3).
-fn request_line(line: &[u8]) -> Result<Request, Status> {
+fn request_line(line: &[u8], updates: bool) -> Result<Request, Status> {
     if line
         .iter()
         .any(|&b| !(0x21..=0x7e).contains(&b) && b != b' ')
@@ -325,9 +468,10 @@ fn request_line(line: &[u8]) -> Result<Request, Status> {
     if method.is_empty() || !method.iter().all(|&b| is_tchar(b)) {
         return Err(Status::BadRequest);
     }
-    let head_only = match method {
-        b"GET" => false,
-        b"HEAD" => true,
+    let (head_only, put) = match method {
+        b"GET" => (false, false),
+        b"HEAD" => (true, false),
+        b"PUT" if updates => (false, true),
         m if KNOWN_METHODS.contains(&m) => return Err(Status::MethodNotAllowed),
         _ => return Err(Status::NotImplemented),
     };
@@ -343,17 +487,31 @@ fn request_line(line: &[u8]) -> Result<Request, Status> {
     if target.first() != Some(&b'/') {
         return Err(Status::BadRequest);
     }
-    let path = target.split(|&b| b == b'?').next().unwrap_or(target);
+    let mut parts = target.splitn(2, |&b| b == b'?');
+    let path = parts.next().unwrap_or(target);
+    let query = parts.next().unwrap_or(&[]);
     let route = match path {
         b"/" | b"/index.html" => Route::Page,
         b"/status.json" => Route::Json,
         b"/metrics" => Route::Metrics,
+        b"/firmware" if updates => Route::Firmware,
         _ => return Err(Status::NotFound),
     };
+    // `PUT` is for the firmware alone, and the firmware is only `PUT`.
+    match (put, route == Route::Firmware) {
+        (true, false) => return Err(Status::MethodNotAllowed),
+        (false, true) => return Err(Status::PutOnly),
+        _ => {}
+    }
+    let body = put.then(|| Body {
+        length: 0,
+        force: query.split(|&b| b == b'&').any(|p| p == b"force=1"),
+    });
     Ok(Request {
         route,
         head_only,
         gzip: false,
+        body,
     })
 }
 
@@ -376,8 +534,10 @@ pub fn head(out: &mut dyn super::Out, status: Status, content_type: &str, len: u
     out.str("\r\nContent-Length: ");
     out.u64(len as u64);
     out.str("\r\nCache-Control: no-store\r\nConnection: close\r\nX-Content-Type-Options: nosniff\r\nContent-Security-Policy: default-src 'none'; style-src 'unsafe-inline'; script-src 'unsafe-inline'; connect-src 'self'\r\n");
-    if status == Status::MethodNotAllowed {
-        out.str("Allow: GET, HEAD\r\n");
+    match status {
+        Status::MethodNotAllowed => out.str("Allow: GET, HEAD\r\n"),
+        Status::PutOnly => out.str("Allow: PUT\r\n"),
+        _ => {}
     }
     if gzip {
         out.str("Content-Encoding: gzip\r\nVary: Accept-Encoding\r\n");

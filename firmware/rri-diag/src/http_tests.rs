@@ -11,6 +11,7 @@ fn ok(route: Route) -> Parsed {
         route,
         head_only: false,
         gzip: false,
+        body: None,
     })
 }
 
@@ -35,6 +36,7 @@ fn the_three_paths_with_crlf_or_bare_lf_and_any_split() {
             route: Route::Page,
             head_only: true,
             gzip: false,
+            body: None,
         })
     );
 }
@@ -46,6 +48,7 @@ fn accept_encoding_gzip_is_seen_in_any_case_and_split() {
         route: Route::Page,
         head_only: false,
         gzip: true,
+        body: None,
     });
     for split in 0..req.len() {
         let mut p = Parser::new();
@@ -202,4 +205,106 @@ fn responses_close_the_connection_and_say_their_length() {
     assert!(head.contains("\r\nAllow: GET, HEAD"));
     assert!(head.contains(&format!("\r\nContent-Length: {}", body.len())));
     assert_eq!(body, "405 Method Not Allowed\n");
+}
+
+fn put(length: u32, force: bool) -> Parsed {
+    Parsed::Request(Request {
+        route: Route::Firmware,
+        head_only: false,
+        gzip: false,
+        body: Some(Body { length, force }),
+    })
+}
+
+#[test]
+fn put_firmware_is_a_request_only_with_updates_built_in() {
+    let req = b"PUT /firmware HTTP/1.1\r\nHost: d\r\nContent-Length: 211504\r\n\r\nBODY";
+    // Read-only: any PUT is 405 (Allow: GET, HEAD), /firmware 404.
+    assert_eq!(parse(req), Parsed::Refused(Status::MethodNotAllowed));
+    assert_eq!(
+        parse(b"GET /firmware HTTP/1.1\r\n\r\n"),
+        Parsed::Refused(Status::NotFound)
+    );
+    for split in 0..req.len() {
+        let mut p = Parser::with_updates();
+        let first = p.feed(&req[..split]);
+        let verdict = if first == Parsed::More {
+            let v = p.feed(&req[split..]);
+            // The body starts right after the head, in this feed's bytes.
+            assert_eq!(&req[split..][p.body_start()..], b"BODY", "split at {split}");
+            v
+        } else {
+            // The rest of this feed and all of the next are the body.
+            let rest = [&req[..split][p.body_start()..], &req[split..]].concat();
+            assert_eq!(rest, b"BODY", "split at {split}");
+            first
+        };
+        assert_eq!(verdict, put(211_504, false), "split at {split}");
+    }
+    let mut p = Parser::with_updates();
+    assert_eq!(
+        p.feed(b"PUT /firmware?x=2&force=1 HTTP/1.1\r\ncontent-length:\t 7 \r\n\r\n"),
+        put(7, true)
+    );
+}
+
+#[test]
+fn put_firmware_needs_one_plain_content_length_and_other_methods_stay_refused() {
+    let with = |bytes: &[u8]| Parser::with_updates().feed(bytes);
+    for (req, status) in [
+        (
+            &b"PUT /firmware HTTP/1.1\r\n\r\n"[..],
+            Status::LengthRequired,
+        ),
+        (
+            b"PUT /firmware HTTP/1.1\r\nContent-Length: 12x\r\n\r\n",
+            Status::BadRequest,
+        ),
+        (
+            b"PUT /firmware HTTP/1.1\r\nContent-Length: \r\n\r\n",
+            Status::BadRequest,
+        ),
+        (
+            b"PUT /firmware HTTP/1.1\r\nContent-Length: 4294967296\r\n\r\n",
+            Status::BadRequest,
+        ),
+        (
+            b"PUT /firmware HTTP/1.1\r\nContent-Length: 5\r\nContent-Length: 5\r\n\r\n",
+            Status::BadRequest,
+        ),
+        (
+            b"PUT /firmware HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n",
+            Status::NotImplemented,
+        ),
+        (
+            b"PUT /status.json HTTP/1.1\r\nContent-Length: 5\r\n\r\n",
+            Status::MethodNotAllowed,
+        ),
+        (
+            b"POST /firmware HTTP/1.1\r\nContent-Length: 5\r\n\r\n",
+            Status::MethodNotAllowed,
+        ),
+        (b"GET /firmware HTTP/1.1\r\n\r\n", Status::PutOnly),
+        (
+            b"PUT /firmwares HTTP/1.1\r\nContent-Length: 5\r\n\r\n",
+            Status::NotFound,
+        ),
+    ] {
+        assert_eq!(
+            with(req),
+            Parsed::Refused(status),
+            "{}",
+            String::from_utf8_lossy(req)
+        );
+    }
+    assert_eq!(
+        with(b"PUT /firmware HTTP/1.1\r\nContent-Length: 4294967295\r\n\r\n"),
+        put(u32::MAX, false)
+    );
+    // GET is as before with updates built in; a Content-Length there is
+    // ignored (a GET's body is never read).
+    assert_eq!(
+        with(b"GET /metrics HTTP/1.1\r\nContent-Length: x\r\n\r\n"),
+        ok(Route::Metrics)
+    );
 }

@@ -175,6 +175,15 @@ pub fn write(out: &mut dyn Out, id: &Identity, s: &Status) {
         }),
         None => m.null("last_bad_message"),
     }
+    match &s.update {
+        #[cfg(rri_update)]
+        Some(u) => m.object("update", &mut |o| {
+            o.flag("swaps", u.swaps);
+            o.text("outcome", crate::update::name(&u.last));
+            o.quoted("last", &mut |w| crate::update::line(w, u));
+        }),
+        _ => m.null("update"),
+    }
     m.num("events_total", s.events.total().into());
     m.array("events", s.events.newest_first(), &mut |o, e| {
         o.str("{");

@@ -43,6 +43,7 @@ pub mod serve;
 pub mod status;
 #[cfg(feature = "board")]
 pub mod tasks;
+pub mod update;
 mod view;
 
 pub use out::{Count, Out, Window};
@@ -62,12 +63,28 @@ pub fn body(out: &mut dyn Out, request: http::Request, id: &Identity, s: &Status
         http::Route::Page => out.str(page::NO_GZIP),
         http::Route::Json => json::write(out, id, s),
         http::Route::Metrics => metrics::write(out, id, s),
+        // Its response is the upload's ([`respond`]); as a body, the line.
+        #[cfg(rri_update)]
+        http::Route::Firmware => match &s.update {
+            Some(u) => update::line(out, u),
+            None => out.str("this firmware takes no updates"),
+        },
+        #[cfg(not(rri_update))]
+        http::Route::Firmware => out.str("this firmware takes no updates"),
     }
 }
 
 /// Writes the whole response to `request`: the head (with the body's
 /// length, from a counting pass) and, unless it is a `HEAD`, the body.
 pub fn respond(out: &mut dyn Out, request: http::Request, id: &Identity, s: &Status) {
+    if request.route == http::Route::Firmware {
+        match &s.update {
+            #[cfg(rri_update)]
+            Some(u) => update::respond(out, u),
+            _ => http::error(out, http::Status::MethodNotAllowed),
+        }
+        return;
+    }
     let mut count = Count::default();
     body(&mut count, request, id, s);
     let gzip = request.gzip && request.route == http::Route::Page;

@@ -65,6 +65,12 @@ pub const CLOSE_TIMEOUT: Duration = Duration::from_secs(1);
 /// a client that takes none for this long loses its connection, so that
 /// it cannot keep the other slots' responses waiting.
 pub const STALL_TIMEOUT: Duration = Duration::from_secs(1);
+/// A whole upload (`PUT /firmware`), from the connection to the response,
+/// must take no longer (the connection is aborted otherwise, and the
+/// upload abandoned): a 1 MiB image at 16 KiB/s.
+pub const UPLOAD_TIMEOUT: Duration = Duration::from_secs(64);
+/// An upload whose client sends no byte for this long is abandoned.
+pub const BODY_STALL: Duration = Duration::from_secs(5);
 
 type Cs = CriticalSectionRawMutex;
 
@@ -78,11 +84,17 @@ pub struct Slot {
     finished: Signal<Cs, ()>,
     /// The client went away or did not read (network half → service).
     gone: Signal<Cs, ()>,
+    /// The client closed its side and every byte it sent is in the
+    /// inbound pipe (network half → service): a body still short will
+    /// never be whole.
+    ended: Signal<Cs, ()>,
     /// The service has its verdict: request bytes are no longer needed.
     heard: core::sync::atomic::AtomicBool,
     /// The service gave the response up (the client stalled): the network
     /// half aborts the connection instead of closing it.
     abandoned: core::sync::atomic::AtomicBool,
+    /// An upload is arriving: the connection may last [`UPLOAD_TIMEOUT`].
+    long: core::sync::atomic::AtomicBool,
 }
 
 impl Default for Slot {
@@ -100,8 +112,10 @@ impl Slot {
             opened: Signal::new(),
             finished: Signal::new(),
             gone: Signal::new(),
+            ended: Signal::new(),
             heard: core::sync::atomic::AtomicBool::new(false),
             abandoned: core::sync::atomic::AtomicBool::new(false),
+            long: core::sync::atomic::AtomicBool::new(false),
         }
     }
 }
@@ -252,9 +266,12 @@ pub async fn connection(
         slot.outbound.clear();
         slot.finished.reset();
         slot.gone.reset();
+        slot.ended.reset();
         slot.heard
             .store(false, core::sync::atomic::Ordering::Relaxed);
         slot.abandoned
+            .store(false, core::sync::atomic::Ordering::Relaxed);
+        slot.long
             .store(false, core::sync::atomic::Ordering::Relaxed);
         slot.opened.signal(());
         half.inbound.len = 0;
@@ -325,7 +342,7 @@ async fn serve_connection(
     half: &mut SocketHalf,
     cycle: &Link,
 ) -> Ended {
-    let deadline = Instant::now() + REQUEST_TIMEOUT + RESPONSE_TIMEOUT;
+    let opened = Instant::now();
     let SocketHalf { chunk, inbound } = half;
     let mut service_done = false;
     loop {
@@ -336,6 +353,12 @@ async fn serve_connection(
             };
         }
         after_the_reply(cycle).await;
+        let deadline = opened
+            + if slot.long.load(core::sync::atomic::Ordering::Relaxed) {
+                UPLOAD_TIMEOUT
+            } else {
+                REQUEST_TIMEOUT + RESPONSE_TIMEOUT
+            };
         // One of: request bytes moved, response bytes ready, the service
         // done; or the connection's time is up.
         let step = select3(
@@ -404,7 +427,9 @@ async fn read_or_forward(socket: &mut TcpSocket<'_>, slot: &Slot, inbound: &mut 
         return true;
     }
     if inbound.eof {
-        // Nothing more will come; the other directions decide.
+        // Nothing more will come, and all of it is in the pipe; the other
+        // directions decide.
+        slot.ended.signal(());
         core::future::pending::<()>().await;
     }
     match socket.read(inbound.bytes.as_mut_slice()).await {
@@ -434,5 +459,9 @@ async fn write_all(socket: &mut TcpSocket<'_>, mut bytes: &[u8]) -> bool {
     true
 }
 
+mod desk;
 mod service;
+#[cfg(rri_update)]
+mod upload;
+pub use desk::Desk;
 pub use service::service;

@@ -183,4 +183,6 @@ pub struct Status {
     /// Why the device last started (`None`: the host sensor, which has no
     /// resets).
     pub reset: Option<ResetInfo>,
+    /// Updates, where the firmware takes them (`None`: built without).
+    pub update: Option<crate::update::Update>,
 }

@@ -65,6 +65,18 @@ static WINDOW_BYTES: ConstStaticCell<[u8; WINDOW]> = ConstStaticCell::new([0; WI
 /// The service's counters (connections accepted, answered, aborted).
 pub static STATS: ServiceStats = ServiceStats::new();
 
+/// Where uploads go (issue 43): the board installs its receiver before it
+/// spawns the services, or leaves the service read-only. Only where the
+/// upload's path is built (cfg `rri_update`: a board with update
+/// partitions).
+#[cfg(rri_update)]
+pub static DESK: serve::Desk = serve::Desk::new();
+
+#[cfg(rri_update)]
+const THE_DESK: Option<&serve::Desk> = Some(&DESK);
+#[cfg(not(rri_update))]
+const THE_DESK: Option<&serve::Desk> = None;
+
 /// The service's parts, built once.
 pub struct Parts {
     slots: &'static [Slot; SLOTS],
@@ -181,5 +193,5 @@ async fn service(
     id: &'static Identity,
     fill: Fill,
 ) -> ! {
-    serve::service(slot, half, renderer, id, fill).await
+    serve::service(slot, half, renderer, id, fill, THE_DESK).await
 }

@@ -133,6 +133,10 @@ fn status() -> Status {
             panic: Some((file, 9, 42)),
             boots: 3,
         }),
+        update: Some(crate::update::Update {
+            swaps: true,
+            last: rri_update::Outcome::Refused(rri_update::Refused::OtherBoard),
+        }),
     }
 }
 
@@ -150,6 +154,7 @@ fn response_to(route: Route, gzip: bool, status: &Status) -> (String, Vec<u8>) {
             route,
             head_only: false,
             gzip,
+            body: None,
         },
         &identity(),
         status,

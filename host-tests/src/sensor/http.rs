@@ -62,6 +62,7 @@ impl HostDiag {
             bad: self.last_bad.get(),
             events: self.events.copy(),
             reset: None,
+            update: None,
         }
     }
 }
