@@ -70,6 +70,13 @@ fn main() {
         panic!("cannot write {}: {e}", path.display());
     }
     println!("cargo:rustc-link-search={}", out.display());
+    // Whether the upload's path is built (issue 43): on a board with
+    // update partitions, and on the host (the service's tests). The
+    // firmware's and the diagnostics' build scripts read it
+    // (`DEP_RRI_HAL_BOARD_UPDATES`); a board without partitions carries
+    // none of it.
+    let updates = !bare_metal || std::env::var_os("CARGO_FEATURE_MPS2_AN500").is_some();
+    println!("cargo::metadata=updates={}", u8::from(updates));
 }
 
 fn read(path: &Path) -> String {

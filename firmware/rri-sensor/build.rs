@@ -18,7 +18,54 @@ fn main() {
     println!("cargo:rerun-if-env-changed=RRI_HTTP_PORT");
     println!("cargo::rustc-check-cfg=cfg(rri_http)");
     let port = std::env::var("RRI_HTTP_PORT").unwrap_or_default();
-    if port.trim() != "0" {
+    let http = port.trim() != "0";
+    if http {
         println!("cargo:rustc-cfg=rri_http");
+    }
+    update_key(&workspace, http);
+}
+
+/// Update in the cell (issue 43): cfg `rri_update` when the board has
+/// update partitions (hal-board's metadata) and the diagnostics service
+/// is built in, and `$OUT_DIR/update_key.rs` with the key the firmware
+/// checks update files with: the file `RRI_UPDATE_KEY` names (32 bytes,
+/// `cargo sign-image -- keygen`), else `None`; and the demonstration key
+/// (`firmware/rri-update/demo-key/`), which `src/update.rs` takes on the
+/// QEMU board alone.
+fn update_key(workspace: &std::path::Path, http: bool) {
+    println!("cargo::rustc-check-cfg=cfg(rri_update)");
+    println!("cargo:rerun-if-env-changed=RRI_UPDATE_KEY");
+    let board_has = std::env::var("DEP_RRI_HAL_BOARD_UPDATES").as_deref() == Ok("1")
+        && std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none");
+    if board_has && http {
+        println!("cargo:rustc-cfg=rri_update");
+    }
+    let read = |path: &std::path::Path| -> [u8; 32] {
+        println!("cargo:rerun-if-changed={}", path.display());
+        let bytes = std::fs::read(path).unwrap_or_else(|e| {
+            panic!(
+                "RRI_UPDATE_KEY: {}: {e} (the public key `cargo sign-image -- keygen` made)",
+                path.display()
+            )
+        });
+        bytes.try_into().unwrap_or_else(|b: Vec<u8>| {
+            panic!(
+                "RRI_UPDATE_KEY: {}: {} bytes, an ed25519 public key is 32 (update-key.pub, not the secret update-key)",
+                path.display(),
+                b.len()
+            )
+        })
+    };
+    let key = std::env::var_os("RRI_UPDATE_KEY")
+        .filter(|v| !v.is_empty())
+        .map(|p| read(std::path::Path::new(&p)));
+    let demo = read(&workspace.join("firmware/rri-update/demo-key/update-key.pub"));
+    let out = std::path::PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
+    let text = format!(
+        "/// The key `RRI_UPDATE_KEY` named at build time.\npub const KEY: Option<[u8; 32]> = {key:?};\n/// The QEMU board's demonstration key (anyone can sign with it).\npub const DEMO: [u8; 32] = {demo:?};\n"
+    );
+    let path = out.join("update_key.rs");
+    if let Err(e) = std::fs::write(&path, text) {
+        panic!("cannot write {}: {e}", path.display());
     }
 }

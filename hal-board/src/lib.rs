@@ -36,6 +36,7 @@ pub mod lan8742;
 pub mod lan9118;
 pub mod mac;
 pub mod mpu;
+pub mod ram_flash;
 pub mod reset;
 pub mod rx_ring;
 pub mod stack_guard;

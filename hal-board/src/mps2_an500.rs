@@ -209,6 +209,60 @@ pub fn cycle_counter() -> u32 {
     time::raw32()
 }
 
+/// Update in the cell (issue 43): the partitions and what an update file
+/// for this board says.
+pub mod update {
+    use crate::ram_flash::RamFlash;
+
+    /// The board an update file must name (`cargo sign-image -- sign
+    /// --board qemu`).
+    pub const BOARD: &str = "mps2-an500";
+    /// Where the image is linked: the active partition's start.
+    pub const ORIGIN: u32 = 0;
+    /// No bootloader runs on this board yet: a marked image is not
+    /// swapped in (the status says so).
+    pub const SWAPS: bool = false;
+    /// The demonstration key, which anyone can sign with, may be built
+    /// into this board's image (it is no product).
+    pub const DEMO_KEY_ALLOWED: bool = true;
+
+    extern "C" {
+        static mut __update_state: u8;
+        static __update_state_len: u8;
+        static mut __update_dfu: u8;
+        static __update_dfu_len: u8;
+        static __update_active_len: u8;
+    }
+
+    /// The active partition's bytes (the memory map's FLASH): the most an
+    /// image may have.
+    pub fn active() -> usize {
+        // A linker symbol's address, never read through.
+        core::ptr::addr_of!(__update_active_len) as usize
+    }
+
+    /// The update and state partitions: handles on the memory map's
+    /// UPDATE region (`memory/mps2-an500.x`, RAM that QEMU's reset leaves
+    /// alone). Every call makes new handles on the same bytes: the caller
+    /// uses one pair at a time (the update desk's mutex).
+    pub fn partitions() -> (RamFlash, RamFlash) {
+        // SAFETY: linker symbols: their addresses are the partitions'
+        // starts and lengths; no section is linked into them (the memory
+        // map's UPDATE region holds none).
+        unsafe {
+            let dfu = RamFlash::new(
+                core::ptr::addr_of_mut!(__update_dfu),
+                core::ptr::addr_of!(__update_dfu_len) as usize,
+            );
+            let state = RamFlash::new(
+                core::ptr::addr_of_mut!(__update_state),
+                core::ptr::addr_of!(__update_state_len) as usize,
+            );
+            (dfu, state)
+        }
+    }
+}
+
 /// The LAN9118's receive counters (see [`lan9118::nic_counters`]; QEMU's
 /// model never counts a dropped frame: its `RX_DROP` reads 0).
 pub fn nic_counters() -> Option<crate::NicCounters> {

@@ -71,6 +71,8 @@ pub fn status(out: &mut Option<Status>) {
         bad: LAST_BAD.get(),
         events: EVENTS.copy(),
         reset: Some(critical_section::with(|cs| RESET.borrow(cs).get())),
+        // The service fills it in from its update desk.
+        update: None,
     });
 }
 

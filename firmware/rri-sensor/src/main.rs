@@ -57,6 +57,8 @@ macro_rules! spawn {
 #[cfg(rri_http)]
 mod diagnostics;
 mod housekeeping;
+#[cfg(rri_update)]
+mod update;
 use housekeeping::housekeeping;
 
 /// The device's address: Description.xml's `Network Address`.
@@ -174,6 +176,8 @@ fn main() -> ! {
     );
     #[cfg(not(rri_http))]
     let _ = mac;
+    #[cfg(rri_update)]
+    update::install();
     let Some((writer, reader)) = SAMPLES.split() else {
         defmt::panic!("the sample cell was split twice")
     };
