@@ -22,6 +22,8 @@ pub struct Web {
     device_status: bool,
     browser: Option<(PathBuf, PathBuf)>,
     attack: bool,
+    /// `--update-catalogue`: the image its files are made from.
+    update: Option<PathBuf>,
 }
 
 /// The threads that run during the counted run.
@@ -29,13 +31,18 @@ pub struct During {
     stop: Arc<AtomicBool>,
     loads: Option<JoinHandle<Vec<String>>>,
     attack: Option<JoinHandle<Result<Vec<String>, Vec<String>>>>,
+    update: Option<JoinHandle<Result<Vec<String>, Vec<String>>>>,
 }
 
 impl Web {
     /// From the run's options; `http` is where the device's diagnostics
     /// answer (`None`: the tool cannot reach them).
     pub fn new(args: &RunArgs, http: Option<SocketAddr>) -> Result<Web, String> {
-        let wants = args.device_status || args.browser.is_some() || args.http_attack || args.serve;
+        let wants = args.device_status
+            || args.browser.is_some()
+            || args.http_attack
+            || args.update_catalogue
+            || args.serve;
         if wants && http.is_none() {
             return Err(
                 "--device-status, --browser, --http-attack and --serve need the device's diagnostics (RRI_HTTP_PORT), which this run cannot reach"
@@ -46,11 +53,19 @@ impl Web {
             Some(png) => Some((crate::browser::find()?, png.clone())),
             None => None,
         };
+        let update = match (args.update_catalogue, &args.image) {
+            (false, _) => None,
+            (true, Some(elf)) => Some(elf.clone()),
+            (true, None) => {
+                return Err("--update-catalogue: only the QEMU board takes updates yet (`cargo demo` without --board)".into())
+            }
+        };
         Ok(Web {
             http,
             device_status: args.device_status,
             browser,
             attack: args.http_attack,
+            update,
         })
     }
 
@@ -102,10 +117,21 @@ impl Web {
             }
             _ => None,
         };
+        let update = match (&self.update, self.http) {
+            (Some(elf), Some(http)) => {
+                println!("== update catalogue against http://{http}/firmware while the robot runs");
+                let elf = elf.clone();
+                Some(std::thread::spawn(move || {
+                    crate::update_catalogue::run(http, &elf)
+                }))
+            }
+            _ => None,
+        };
         During {
             stop,
             loads,
             attack,
+            update,
         }
     }
 
@@ -135,6 +161,22 @@ impl Web {
                     failures.extend(lines.into_iter().filter(|l| l.starts_with("FAIL")));
                 }
                 Err(_) => failures.push("the HTTP catalogue panicked".into()),
+            }
+        }
+        if let Some(update) = during.update {
+            match update.join() {
+                Ok(Ok(lines)) => {
+                    for l in lines {
+                        println!("update: {l}");
+                    }
+                }
+                Ok(Err(lines)) => {
+                    for l in &lines {
+                        println!("update: {l}");
+                    }
+                    failures.extend(lines.into_iter().filter(|l| l.starts_with("FAIL")));
+                }
+                Err(_) => failures.push("the update catalogue panicked".into()),
             }
         }
         let mut seen_operating = false;

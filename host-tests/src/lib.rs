@@ -38,6 +38,8 @@ pub mod replay;
 pub mod run_args;
 pub mod sensor;
 pub mod setup;
+pub mod update_catalogue;
+pub mod update_device;
 pub mod update_file;
 pub mod verdict;
 

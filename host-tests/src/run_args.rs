@@ -63,6 +63,15 @@ pub struct RunArgs {
     /// fails unless every case gets its answer and every robot message is answered.
     #[arg(long)]
     pub http_attack: bool,
+    /// Push every kind of update file the device must refuse, then one it must take, to its
+    /// diagnostics port (PUT /firmware) during the counted run (the QEMU board; issue 43);
+    /// fails unless each gets its answer and every robot message is answered.
+    #[arg(long)]
+    pub update_catalogue: bool,
+    /// The image the run booted (set by the tool, not a flag): the update catalogue's files
+    /// are made from it.
+    #[arg(skip)]
+    pub image: Option<PathBuf>,
     /// After the run, keep the device running (and its status page served) until Ctrl-C.
     #[arg(long)]
     pub serve: bool,

@@ -1,6 +1,7 @@
 //! A plain HTTP/1.1 GET over std's TCP, for the device's diagnostics
-//! (`--device-status`, the host tools): the device answers with
-//! `Content-Length` and closes; no TLS, the device serves none.
+//! (`--device-status`, the host tools), and the `PUT` of an update file
+//! (`cargo update-device`): the device answers with `Content-Length` and
+//! closes; no TLS, the device serves none.
 
 use std::io::{Read, Write};
 use std::net::{TcpStream, ToSocketAddrs};
@@ -86,6 +87,93 @@ pub fn get(url: &str, timeout: Duration) -> Result<Response, String> {
         }
     }
     parse(&raw).map_err(|e| format!("{url}: {e}"))
+}
+
+/// What a `PUT` sends: `body` under the path (with its query), declared
+/// as `declared` bytes long (a test may send fewer: the connection is
+/// then half-closed after them, as a client cut off).
+pub struct Put<'a> {
+    pub path: &'a str,
+    pub body: &'a [u8],
+    pub declared: usize,
+}
+
+/// PUTs `put` to the device at `url` (`http://host[:port]/`), calling
+/// `progress` with the bytes sent so far; the whole exchange within
+/// `timeout`. A device that refuses early closes while the body is still
+/// on its way: the write error is not the answer, its response is, so the
+/// response is read whatever the writes met. `Ok(None)`: the connection
+/// ended without a byte of response (a device with every connection slot
+/// busy refuses the connection; behind QEMU's user networking that shows
+/// as a close, not a refused connect).
+pub fn put(
+    url: &str,
+    put: &Put<'_>,
+    timeout: Duration,
+    progress: &mut dyn FnMut(usize),
+) -> Result<Option<Response>, String> {
+    let (host, port, _) = split_url(url)?;
+    let addr = (host.as_str(), port)
+        .to_socket_addrs()
+        .map_err(|e| format!("{url}: {e}"))?
+        .next()
+        .ok_or_else(|| format!("{url}: no address"))?;
+    let end = Instant::now() + timeout;
+    let mut s = TcpStream::connect_timeout(&addr, timeout).map_err(|e| format!("{url}: {e}"))?;
+    s.set_write_timeout(Some(timeout))
+        .map_err(|e| e.to_string())?;
+    let head = format!(
+        "PUT {} HTTP/1.1\r\nHost: {host}:{port}\r\nContent-Type: application/octet-stream\r\nContent-Length: {}\r\nConnection: close\r\nUser-Agent: rri-update-device\r\n\r\n",
+        put.path, put.declared
+    );
+    let mut write_error = s.write_all(head.as_bytes()).err();
+    let mut sent = 0;
+    for chunk in put.body.chunks(4096) {
+        if write_error.is_some() || Instant::now() > end {
+            break;
+        }
+        match s.write_all(chunk) {
+            Ok(()) => {
+                sent += chunk.len();
+                progress(sent);
+            }
+            Err(e) => write_error = Some(e),
+        }
+    }
+    if put.body.len() < put.declared {
+        let _ = s.shutdown(std::net::Shutdown::Write);
+    }
+    let mut raw = Vec::new();
+    let mut buf = [0u8; 4096];
+    loop {
+        let left = end.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Err(format!("{url}: no whole response within {timeout:?}"));
+        }
+        s.set_read_timeout(Some(left)).map_err(|e| e.to_string())?;
+        match s.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => raw.extend_from_slice(&buf[..n]),
+            // A reset after the response (the device closed while our
+            // bytes were still coming) ends it like a close.
+            Err(_) if !raw.is_empty() => break,
+            Err(e) if e.kind() == std::io::ErrorKind::ConnectionReset => break,
+            Err(e) => {
+                let during = match write_error {
+                    Some(w) => format!(" (after {sent} bytes the writes met: {w})"),
+                    None => String::new(),
+                };
+                return Err(format!("{url}: {e}{during}"));
+            }
+        }
+        if raw.len() > MAX_RESPONSE {
+            return Err(format!("{url}: response longer than {MAX_RESPONSE} bytes"));
+        }
+    }
+    if raw.is_empty() {
+        return Ok(None);
+    }
+    parse(&raw).map(Some).map_err(|e| format!("{url}: {e}"))
 }
 
 /// A whole HTTP/1.x response.

@@ -58,11 +58,13 @@ fn run_demo(args: &RunArgs) -> Result<(), Failure> {
     );
     let name = if args.tcp { "demo-tcp" } else { "demo" };
     let elf = qemu::build_firmware(&[], setup.build_gsi.as_deref(), name)?;
+    let mut args = args.clone();
+    args.image = Some(elf.clone());
     let (board, to, http) = qemu::boot_local(elf, &setup.device)?;
     let ran = demo::drive(
         Box::new(board),
         &setup,
-        args,
+        &args,
         to,
         http,
         &demo::qemu_ready(&setup),

@@ -31,6 +31,7 @@ mod report;
 mod run;
 mod scrape;
 mod scraped;
+mod upload;
 mod user_corpus;
 
 use clap::Parser;
@@ -116,6 +117,9 @@ struct Measured {
     /// The same again while the diagnostics were scraped, and what the
     /// scraper got.
     scraped: Option<(Phase, String)>,
+    /// The same again while an update was uploaded, and what the uploader
+    /// got.
+    uploaded: Option<(Phase, String)>,
     /// Stack use: (start-up, running, budget) bytes.
     stack: (u64, u64, u64),
     log: Vec<String>,
@@ -241,6 +245,18 @@ fn counted(
     let scraped = phase(args, &board, to, gsi, device, 1_000_000);
     let got = scraper.stop();
     let scraped = scraped?;
+    println!("== the upload run: the same again while an update file of the bench image is uploaded over and over (PUT /firmware: written to the update partition, hashed, refused at its signature)");
+    let uploader = upload::Uploader::start(http, upload::file(&boot.elf)?);
+    let uploaded = phase(args, &board, to, gsi, device, 2_000_000);
+    let sent = uploader.stop();
+    let uploaded = uploaded?;
+    let others = sent.other.lock().map(|o| o.len()).unwrap_or(1);
+    if sent.checked.load(std::sync::atomic::Ordering::Relaxed) == 0 || others > 0 {
+        return Err(format!(
+            "the upload run's uploads did not all go as meant: {}",
+            sent.line()
+        ));
+    }
     // The stack's high-water mark reaches the log within a second.
     let stack = wait_for_stack(&board)?;
     let log = finish(board, "during the bench")?;
@@ -252,6 +268,7 @@ fn counted(
         realistic: quiet.realistic,
         hostile: quiet.hostile,
         scraped: Some((scraped, got.line())),
+        uploaded: Some((uploaded, sent.line())),
         stack,
         counters: last_counters(&log),
         log,

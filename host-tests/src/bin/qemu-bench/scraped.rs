@@ -40,12 +40,15 @@ pub struct ScrapeFigures {
     pub missed: u64,
     /// What the scraper got.
     pub scraper: String,
+    /// Which run: `scrape run` (a client on the diagnostics) or `upload
+    /// run` (an update arriving).
+    pub run: &'static str,
 }
 
 impl ScrapeFigures {
     /// From the scrape run `p` and what the scraper got; `quiet_full_max`
     /// is the quiet run's full-path max.
-    pub fn of(p: &Phase, scraper: &str, quiet_full_max: u64) -> Self {
+    pub fn of(run: &'static str, p: &Phase, scraper: &str, quiet_full_max: u64) -> Self {
         let (compute, full, late) = spreads(&p.sim_records, &p.realistic);
         let paths = full_paths(&p.sim_records, &p.realistic);
         let over = |tolerance: f64| {
@@ -66,6 +69,7 @@ impl ScrapeFigures {
                 .unwrap_or(0),
             missed: p.summary.lost + p.summary.wrong_id + p.summary.malformed + late,
             scraper: scraper.to_string(),
+            run,
         }
     }
 
@@ -73,10 +77,21 @@ impl ScrapeFigures {
     /// path max and median, hostile worst).
     pub fn print(&self, compute: (u64, u64), full: (u64, u64), hostile_max: u64) {
         println!(
-            "\n== the scrape run: the same phases while the diagnostics were read ({})",
+            "\n== the {}: the same phases while {} ({})",
+            self.run,
+            if self.run == "upload run" {
+                "an update arrived"
+            } else {
+                "the diagnostics were read"
+            },
             self.scraper
         );
-        println!("  {:<22} {:>10} {:>10}", "", "quiet", "scraped");
+        println!(
+            "  {:<22} {:>10} {:>10}",
+            "",
+            "quiet",
+            self.run.split(' ').next().unwrap_or("")
+        );
         for (what, quiet, scraped) in [
             ("compute max", compute.0, self.compute.max),
             ("compute median", compute.1, self.compute.median),
@@ -98,8 +113,8 @@ impl ScrapeFigures {
             SCRAPE_COINCIDENCE_TOLERANCE * 100.0
         );
         println!(
-            "  replies missed, wrong or late while scraped: {}",
-            self.missed
+            "  replies missed, wrong or late in the {}: {}",
+            self.run, self.missed
         );
     }
 
@@ -111,7 +126,8 @@ impl ScrapeFigures {
         let allowed = (self.messages as f64 * SCRAPE_COINCIDENCE_SHARE) as usize;
         if self.full_over > allowed || self.full_far_over > 0 {
             println!(
-                "FAIL: scrape run: {} full paths of {} over the quiet run's max {full_max} by more than {:.0} % (bound: {allowed}), {} by more than {:.0} % (bound: 0); see scraped.rs",
+                "FAIL: {}: {} full paths of {} over the quiet run's max {full_max} by more than {:.0} % (bound: {allowed}), {} by more than {:.0} % (bound: 0); see scraped.rs",
+                self.run,
                 self.full_over,
                 self.messages,
                 SCRAPE_FULL_TOLERANCE * 100.0,
@@ -127,7 +143,8 @@ impl ScrapeFigures {
         for (what, scraped, quiet, tolerance) in checks {
             if scraped as f64 > quiet as f64 * (1.0 + tolerance) {
                 println!(
-                    "FAIL: scrape run: {what} {scraped} is more than {:.0} % over the quiet run's {quiet}",
+                    "FAIL: {}: {what} {scraped} is more than {:.0} % over the quiet run's {quiet}",
+                    self.run,
                     tolerance * 100.0
                 );
                 ok = false;
@@ -135,8 +152,8 @@ impl ScrapeFigures {
         }
         if self.missed > 0 {
             println!(
-                "FAIL: scrape run: {} replies missed, wrong or late",
-                self.missed
+                "FAIL: {}: {} replies missed, wrong or late",
+                self.run, self.missed
             );
             ok = false;
         }
