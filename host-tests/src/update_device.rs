@@ -102,7 +102,7 @@ pub fn status(to: &str) -> Result<(String, Option<String>), String> {
     };
     let json: serde_json::Value =
         serde_json::from_slice(&r.body).map_err(|e| format!("{url}: {e}"))?;
-    let version = json["device"]["version"]
+    let version = json["device"]["firmware"]["version"]
         .as_str()
         .unwrap_or("?")
         .to_string();
