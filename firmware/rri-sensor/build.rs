@@ -29,7 +29,8 @@ fn main() {
 /// update partitions (hal-board's metadata) and the diagnostics service
 /// is built in, and `$OUT_DIR/update_key.rs` with the key the firmware
 /// checks update files with: the file `RRI_UPDATE_KEY` names (32 bytes,
-/// `cargo sign-image -- keygen`), else `None`; and the demonstration key
+/// `cargo sign-image -- keygen`), else `None` (and `OFF` for
+/// `RRI_UPDATE_KEY=off`: no updates on any board); and the demonstration key
 /// (`firmware/rri-update/demo-key/`), which `src/update.rs` takes on the
 /// QEMU board alone.
 fn update_key(workspace: &std::path::Path, http: bool) {
@@ -56,13 +57,16 @@ fn update_key(workspace: &std::path::Path, http: bool) {
             )
         })
     };
-    let key = std::env::var_os("RRI_UPDATE_KEY")
-        .filter(|v| !v.is_empty())
+    let setting = std::env::var_os("RRI_UPDATE_KEY").filter(|v| !v.is_empty());
+    // `off`: no key at all, on every board: the service stays read-only.
+    let off = setting.as_deref() == Some(std::ffi::OsStr::new("off"));
+    let key = setting
+        .filter(|_| !off)
         .map(|p| read(std::path::Path::new(&p)));
     let demo = read(&workspace.join("firmware/rri-update/demo-key/update-key.pub"));
     let out = std::path::PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
     let text = format!(
-        "/// The key `RRI_UPDATE_KEY` named at build time.\npub const KEY: Option<[u8; 32]> = {key:?};\n/// The QEMU board's demonstration key (anyone can sign with it).\npub const DEMO: [u8; 32] = {demo:?};\n"
+                "/// The key `RRI_UPDATE_KEY` named at build time.\npub const KEY: Option<[u8; 32]> = {key:?};\n/// `RRI_UPDATE_KEY=off`: no updates, on any board.\npub const OFF: bool = {off};\n/// The QEMU board's demonstration key (anyone can sign with it).\npub const DEMO: [u8; 32] = {demo:?};\n"
     );
     let path = out.join("update_key.rs");
     if let Err(e) = std::fs::write(&path, text) {

@@ -59,6 +59,7 @@ mod diagnostics;
 mod housekeeping;
 #[cfg(rri_update)]
 mod update;
+mod update_key;
 use housekeeping::housekeeping;
 
 /// The device's address: Description.xml's `Network Address`.

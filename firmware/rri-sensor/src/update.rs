@@ -8,37 +8,14 @@
 //! on the QEMU board alone, the demonstration key in the checkout
 //! (`firmware/rri-update/demo-key/`: anyone can sign with it). A board
 //! that is a product never takes that one: the build fails.
+//! `RRI_UPDATE_KEY=off` builds no key in, on any board: `PUT` is then 405
+//! as any other method the service does not take.
 
 use crate::board;
+use crate::update_key::{key, KEY};
 use hal_board::ram_flash::RamFlash;
 use rri_update::{Device, FirmwareUpdaterConfig, Running, Version};
 use static_cell::StaticCell;
-
-mod key {
-    include!(concat!(env!("OUT_DIR"), "/update_key.rs"));
-}
-
-/// The key update files must be signed with, if any.
-const KEY: Option<[u8; 32]> = match (key::KEY, board::update::DEMO_KEY_ALLOWED) {
-    (Some(k), _) => Some(k),
-    (None, true) => Some(key::DEMO),
-    (None, false) => None,
-};
-
-const _: () = {
-    if let Some(k) = KEY {
-        let mut same = true;
-        let mut i = 0;
-        while i < 32 {
-            same &= k[i] == key::DEMO[i];
-            i += 1;
-        }
-        assert!(
-            board::update::DEMO_KEY_ALLOWED || !same,
-            "RRI_UPDATE_KEY is the demonstration key, which anyone can sign with: build a board with your own (`cargo sign-image -- keygen`)"
-        );
-    }
-};
 
 /// This image, as update files are checked against it.
 const RUNNING: Running<'static> = Running {
@@ -63,7 +40,7 @@ fn partitions() -> FirmwareUpdaterConfig<RamFlash, RamFlash> {
 /// services run); without a key the service stays read-only.
 pub fn install() {
     let Some(key) = KEY else {
-        defmt::info!("updates: not built in (no RRI_UPDATE_KEY)");
+        defmt::info!("updates: none (RRI_UPDATE_KEY=off): the diagnostics stay read-only");
         return;
     };
     let Some(receiver) = RECEIVER.try_init(Device::new(

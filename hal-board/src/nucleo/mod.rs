@@ -49,6 +49,16 @@ pub mod clock;
 pub mod memory;
 pub mod phy;
 
+/// Update in the cell (issue 43): no update partitions on these boards
+/// yet (no bootloader image, no flash driver for them), so the firmware
+/// builds no upload in. They are products: the demonstration key must
+/// never be built into them (the firmware's build refuses it).
+pub mod update {
+    /// The demonstration key, which anyone can sign with, may not be
+    /// built in.
+    pub const DEMO_KEY_ALLOWED: bool = false;
+}
+
 use defmt_rtt as _;
 use embassy_executor::{Executor, InterruptExecutor, SendSpawner, Spawner};
 use embassy_stm32::adc::{Adc, SampleTime};
