@@ -26,6 +26,7 @@
 
 #![no_std]
 
+pub mod boot;
 mod device;
 pub mod image;
 mod upload;
