@@ -1,7 +1,7 @@
 //! What the service says of updates (issue 43): the response to a
 //! `PUT /firmware` and the status's `update` section, both from the last
 //! upload's [`Outcome`]. The upload itself is `rri_update`'s; the bytes
-//! reach it through the service ([`crate::serve`]).
+//! reach it through the service (`serve`, feature `net`).
 
 use crate::http;
 use crate::Out;
