@@ -252,7 +252,7 @@ fn cases(elf: &Path) -> Result<Vec<Case>, String> {
                 "older, forced",
                 sign(&image, origin, BOARD, older, &seed)?,
                 200,
-                "version 0.0.1 checked and marked",
+                "version 0.0.1 (FORCED: older than the running image) checked and marked",
             )
         },
         case(

@@ -419,6 +419,9 @@ impl rri_update::Receive for Sink {
     fn swaps(&self) -> bool {
         true
     }
+    fn running(&self) -> rri_update::Version {
+        rri_update::Version::parse("1.0.0").unwrap()
+    }
 }
 
 /// A desk with a [`Sink`] installed, and what the sink got.

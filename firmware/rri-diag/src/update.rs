@@ -58,9 +58,12 @@ pub fn line(out: &mut dyn Out, u: &Update) {
             out.u32(declared);
             out.str(" bytes");
         }
-        Outcome::Marked { version } => {
+        Outcome::Marked { version, older } => {
             out.str("version ");
             self::version(out, version);
+            if older {
+                out.str(" (FORCED: older than the running image)");
+            }
             if u.swaps {
                 out.str(" checked and marked: it is swapped in at the next reset");
             } else {
@@ -151,7 +154,10 @@ mod tests {
         let v = Version::parse("1.2.3").unwrap();
         for (last, code, words) in [
             (
-                Outcome::Marked { version: v },
+                Outcome::Marked {
+                    version: v,
+                    older: false,
+                },
                 "200 OK",
                 "version 1.2.3 checked and marked: it is swapped in at the next reset",
             ),
@@ -202,8 +208,25 @@ mod tests {
             assert!(body.ends_with('\n') && body.matches('\n').count() == 1);
         }
         let text = said(Update {
+            swaps: true,
+            last: Outcome::Marked {
+                version: Version::parse("0.0.1").unwrap(),
+                older: true,
+            },
+        });
+        assert!(
+            text.contains("200 OK")
+                && text.contains(
+                    "version 0.0.1 (FORCED: older than the running image) checked and marked"
+                ),
+            "{text}"
+        );
+        let text = said(Update {
             swaps: false,
-            last: Outcome::Marked { version: v },
+            last: Outcome::Marked {
+                version: v,
+                older: false,
+            },
         });
         assert!(
             text.contains("no bootloader yet, so nothing swaps it in"),

@@ -24,6 +24,9 @@ pub trait Receive {
     /// Whether a bootloader swaps what is marked at the next reset (a
     /// board without one says so instead of claiming a swap).
     fn swaps(&self) -> bool;
+    /// The running image's version (a marked one older than it was
+    /// forced).
+    fn running(&self) -> Version;
 }
 
 /// What the last upload came to, for the status page and the log.
@@ -42,6 +45,9 @@ pub enum Outcome {
     Marked {
         /// The marked image's version.
         version: Version,
+        /// Older than the running image: taken only because the upload
+        /// was forced (said in the answer and the log).
+        older: bool,
     },
     /// Refused; nothing was marked.
     Refused(Refused),
@@ -115,5 +121,9 @@ impl<DFU: NorFlash, STATE: NorFlash> Receive for Device<DFU, STATE> {
 
     fn swaps(&self) -> bool {
         self.swaps
+    }
+
+    fn running(&self) -> Version {
+        self.running.version
     }
 }

@@ -50,7 +50,7 @@ pub(super) async fn receive(
             if received == declared {
                 break;
             }
-            // The client's close ends the wait at once once the pipe is
+            // The client's close ends the wait as soon as the pipe is
             // empty (its bytes came before its close).
             if let Ok(n) = slot.inbound.try_read(buf.as_mut_slice()) {
                 piece = buf.get(..n).unwrap_or(&[]);
@@ -78,6 +78,7 @@ pub(super) async fn receive(
         match receiver.finish(body.force) {
             Ok(trailer) => Outcome::Marked {
                 version: trailer.version,
+                older: trailer.version < receiver.running(),
             },
             Err(e) => Outcome::Refused(e),
         }
@@ -92,8 +93,20 @@ pub(super) async fn receive(
 #[cfg(feature = "board")]
 fn log(outcome: &Outcome) {
     match outcome {
-        Outcome::Marked { version } => defmt::info!(
+                Outcome::Marked {
+            version,
+            older: false,
+        } => defmt::info!(
             "update: version {}.{}.{} checked and marked for the swap",
+            version.major,
+            version.minor,
+            version.patch
+        ),
+        Outcome::Marked {
+            version,
+            older: true,
+        } => defmt::warn!(
+            "update: FORCED: version {}.{}.{}, older than the running image, checked and marked for the swap",
             version.major,
             version.minor,
             version.patch
