@@ -86,60 +86,40 @@ pub fn build_board(
     crate::mcu_target::ensure()?;
     let ws = crate::workspace();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut cmd = Command::new(&cargo);
-    if let Some(dir) = gsi {
-        cmd.env("RRI_GSI_DIR", dir).env_remove("RRI_DEVICE");
-    }
-    cmd.envs(env.iter().copied());
-    // The QEMU board builds in a target directory of its own, where `cargo
-    // demo`'s launcher builds the plain image beside the host tools.
-    let built_in = if board_features == BOARD_FEATURES {
-        qemu_build_dir()
-    } else {
-        target_dir()
-    };
-    let status = cmd
-        .current_dir(&ws)
-        .args(build_args(board_features, extra))
-        .arg("--target-dir")
-        .arg(&built_in)
-        .status()
-        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
-    if !status.success() {
-        return Err(format!("the firmware build failed ({status})"));
-    }
-    keep_image_from(&built_in, dir, name)
-}
-
-/// The cargo arguments of a firmware build for `board_features` with
-/// `extra` features.
-pub fn build_args(board_features: &str, extra: &[&str]) -> Vec<String> {
     let mut features = board_features.to_string();
     for f in extra {
         features.push(',');
         features.push_str(f);
     }
-    [
-        "build",
-        "-p",
-        "rri-sensor",
-        "--bin",
-        "rri-sensor",
-        "--profile",
-        PROFILE,
-        "--target",
-        TARGET,
-        "--features",
-        &features,
-    ]
-    .map(String::from)
-    .to_vec()
+    let mut cmd = Command::new(&cargo);
+    if let Some(dir) = gsi {
+        cmd.env("RRI_GSI_DIR", dir).env_remove("RRI_DEVICE");
+    }
+    cmd.envs(env.iter().copied());
+    let status = cmd
+        .current_dir(&ws)
+        .args([
+            "build",
+            "-p",
+            "rri-sensor",
+            "--bin",
+            "rri-sensor",
+            "--profile",
+            PROFILE,
+        ])
+        .args(["--target", TARGET, "--features", &features])
+        .status()
+        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
+    if !status.success() {
+        return Err(format!("the firmware build failed ({status})"));
+    }
+    keep_image(dir, name)
 }
 
-/// Where the QEMU board's images are built: a target directory of its own
-/// (`cargo build-qemu`'s too).
-pub fn qemu_build_dir() -> PathBuf {
-    target_dir().join(rri_launch::QEMU_TARGET_DIR)
+/// Copies the firmware image cargo just built to `target/<dir>/<name>.elf`,
+/// so the next build (other features, another board) does not replace it.
+pub fn keep_image(dir: &str, name: &str) -> Result<PathBuf, String> {
+    keep_image_from(&target_dir(), dir, name)
 }
 
 /// [`keep_image`] for an image cargo built in target directory `built_in`
@@ -477,20 +457,3 @@ fn decode(elf: Vec<u8>, mut stdout: impl Read, new: &Mutex<Vec<String>>, all: &M
 
 /// The QEMU board's memory map (the root `memory.x` is the F767's).
 pub const MEMORY_MAP: &str = "hal-board/memory/mps2-an500.x";
-
-#[cfg(test)]
-mod launcher {
-    use super::*;
-
-    /// `cargo demo`'s launcher builds ahead exactly the image the demo
-    /// then asks for, in the same directory: else the demo would build
-    /// it again (or another), and the launch would gain nothing.
-    #[test]
-    fn builds_ahead_what_the_demo_builds() {
-        assert_eq!(
-            rri_launch::FIRMWARE_BUILD.to_vec(),
-            build_args(BOARD_FEATURES, &[])
-        );
-        assert!(qemu_build_dir().ends_with(rri_launch::QEMU_TARGET_DIR));
-    }
-}
