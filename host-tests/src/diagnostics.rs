@@ -147,36 +147,12 @@ impl Web {
     ) -> Vec<String> {
         let mut failures = Vec::new();
         during.stop.store(true, Ordering::Relaxed);
-        if let Some(attack) = during.attack {
-            match attack.join() {
-                Ok(Ok(lines)) => {
-                    for l in lines {
-                        println!("http: {l}");
-                    }
-                }
-                Ok(Err(lines)) => {
-                    for l in &lines {
-                        println!("http: {l}");
-                    }
-                    failures.extend(lines.into_iter().filter(|l| l.starts_with("FAIL")));
-                }
-                Err(_) => failures.push("the HTTP catalogue panicked".into()),
-            }
-        }
-        if let Some(update) = during.update {
-            match update.join() {
-                Ok(Ok(lines)) => {
-                    for l in lines {
-                        println!("update: {l}");
-                    }
-                }
-                Ok(Err(lines)) => {
-                    for l in &lines {
-                        println!("update: {l}");
-                    }
-                    failures.extend(lines.into_iter().filter(|l| l.starts_with("FAIL")));
-                }
-                Err(_) => failures.push("the update catalogue panicked".into()),
+        for (catalogue, prefix, what) in [
+            (during.attack, "http", "HTTP"),
+            (during.update, "update", "update"),
+        ] {
+            if let Some(thread) = catalogue {
+                failures.extend(catalogue_verdict(thread, prefix, what));
             }
         }
         let mut seen_operating = false;
@@ -233,6 +209,31 @@ impl Web {
             }
         }
         failures
+    }
+}
+
+/// A catalogue's lines, each printed after `prefix`; its failures (the
+/// `FAIL` lines, or that it panicked).
+fn catalogue_verdict(
+    thread: JoinHandle<Result<Vec<String>, Vec<String>>>,
+    prefix: &str,
+    what: &str,
+) -> Vec<String> {
+    let (lines, failed) = match thread.join() {
+        Ok(Ok(lines)) => (lines, false),
+        Ok(Err(lines)) => (lines, true),
+        Err(_) => return vec![format!("the {what} catalogue panicked")],
+    };
+    for l in &lines {
+        println!("{prefix}: {l}");
+    }
+    if failed {
+        lines
+            .into_iter()
+            .filter(|l| l.starts_with("FAIL"))
+            .collect()
+    } else {
+        Vec::new()
     }
 }
 

@@ -54,21 +54,44 @@ fn split_url(url: &str) -> Result<(String, u16, String), String> {
 /// GETs `url` within `timeout`; the body must be as long as the
 /// response's `Content-Length` says.
 pub fn get(url: &str, timeout: Duration) -> Result<Response, String> {
+    let (mut s, host, port, path) = connect(url, timeout)?;
+    let end = Instant::now() + timeout;
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: {host}:{port}\r\nConnection: close\r\nUser-Agent: rri-robot\r\n\r\n"
+    )
+    .map_err(|e| format!("{url}: {e}"))?;
+    let (raw, error) = read_until_close(&mut s, end, url, timeout)?;
+    if let Some(e) = error {
+        return Err(format!("{url}: {e}"));
+    }
+    parse(&raw).map_err(|e| format!("{url}: {e}"))
+}
+
+/// Connects to `url`'s host within `timeout` (writes bounded by it too):
+/// the stream, the host, the port and the path.
+fn connect(url: &str, timeout: Duration) -> Result<(TcpStream, String, u16, String), String> {
     let (host, port, path) = split_url(url)?;
     let addr = (host.as_str(), port)
         .to_socket_addrs()
         .map_err(|e| format!("{url}: {e}"))?
         .next()
         .ok_or_else(|| format!("{url}: no address"))?;
-    let end = Instant::now() + timeout;
-    let mut s = TcpStream::connect_timeout(&addr, timeout).map_err(|e| format!("{url}: {e}"))?;
+    let s = TcpStream::connect_timeout(&addr, timeout).map_err(|e| format!("{url}: {e}"))?;
     s.set_write_timeout(Some(timeout))
         .map_err(|e| e.to_string())?;
-    write!(
-        s,
-        "GET {path} HTTP/1.1\r\nHost: {host}:{port}\r\nConnection: close\r\nUser-Agent: rri-robot\r\n\r\n"
-    )
-    .map_err(|e| format!("{url}: {e}"))?;
+    Ok((s, host, port, path))
+}
+
+/// Reads until the server closes, by `end`: the bytes, and the error that
+/// ended the reading instead of a close, if one did. `Err` when the
+/// response is not whole by `end` or longer than [`MAX_RESPONSE`].
+fn read_until_close(
+    s: &mut TcpStream,
+    end: Instant,
+    url: &str,
+    timeout: Duration,
+) -> Result<(Vec<u8>, Option<std::io::Error>), String> {
     let mut raw = Vec::new();
     let mut buf = [0u8; 4096];
     loop {
@@ -78,15 +101,14 @@ pub fn get(url: &str, timeout: Duration) -> Result<Response, String> {
         }
         s.set_read_timeout(Some(left)).map_err(|e| e.to_string())?;
         match s.read(&mut buf) {
-            Ok(0) => break,
+            Ok(0) => return Ok((raw, None)),
             Ok(n) => raw.extend_from_slice(&buf[..n]),
-            Err(e) => return Err(format!("{url}: {e}")),
+            Err(e) => return Ok((raw, Some(e))),
         }
         if raw.len() > MAX_RESPONSE {
             return Err(format!("{url}: response longer than {MAX_RESPONSE} bytes"));
         }
     }
-    parse(&raw).map_err(|e| format!("{url}: {e}"))
 }
 
 /// What a `PUT` sends: `body` under the path (with its query), declared
@@ -112,16 +134,8 @@ pub fn put(
     timeout: Duration,
     progress: &mut dyn FnMut(usize),
 ) -> Result<Option<Response>, String> {
-    let (host, port, _) = split_url(url)?;
-    let addr = (host.as_str(), port)
-        .to_socket_addrs()
-        .map_err(|e| format!("{url}: {e}"))?
-        .next()
-        .ok_or_else(|| format!("{url}: no address"))?;
+    let (mut s, host, port, _) = connect(url, timeout)?;
     let end = Instant::now() + timeout;
-    let mut s = TcpStream::connect_timeout(&addr, timeout).map_err(|e| format!("{url}: {e}"))?;
-    s.set_write_timeout(Some(timeout))
-        .map_err(|e| e.to_string())?;
     let head = format!(
         "PUT {} HTTP/1.1\r\nHost: {host}:{port}\r\nContent-Type: application/octet-stream\r\nContent-Length: {}\r\nConnection: close\r\nUser-Agent: rri-update-device\r\n\r\n",
         put.path, put.declared
@@ -143,31 +157,16 @@ pub fn put(
     if put.body.len() < put.declared {
         let _ = s.shutdown(std::net::Shutdown::Write);
     }
-    let mut raw = Vec::new();
-    let mut buf = [0u8; 4096];
-    loop {
-        let left = end.saturating_duration_since(Instant::now());
-        if left.is_zero() {
-            return Err(format!("{url}: no whole response within {timeout:?}"));
-        }
-        s.set_read_timeout(Some(left)).map_err(|e| e.to_string())?;
-        match s.read(&mut buf) {
-            Ok(0) => break,
-            Ok(n) => raw.extend_from_slice(&buf[..n]),
-            // A reset after the response (the device closed while our
-            // bytes were still coming) ends it like a close.
-            Err(_) if !raw.is_empty() => break,
-            Err(e) if e.kind() == std::io::ErrorKind::ConnectionReset => break,
-            Err(e) => {
-                let during = match write_error {
-                    Some(w) => format!(" (after {sent} bytes the writes met: {w})"),
-                    None => String::new(),
-                };
-                return Err(format!("{url}: {e}{during}"));
-            }
-        }
-        if raw.len() > MAX_RESPONSE {
-            return Err(format!("{url}: response longer than {MAX_RESPONSE} bytes"));
+    let (raw, error) = read_until_close(&mut s, end, url, timeout)?;
+    // A reset after the response (the device closed while our bytes were
+    // still coming) ends it like a close, and so does one before any.
+    if let Some(e) = error {
+        if raw.is_empty() && e.kind() != std::io::ErrorKind::ConnectionReset {
+            let during = match write_error {
+                Some(w) => format!(" (after {sent} bytes the writes met: {w})"),
+                None => String::new(),
+            };
+            return Err(format!("{url}: {e}{during}"));
         }
     }
     if raw.is_empty() {
