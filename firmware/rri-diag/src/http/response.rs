@@ -14,9 +14,9 @@ pub enum Status {
     MethodNotAllowed,
     /// 408: the request did not arrive in time (the service's rule).
     RequestTimeout,
-    /// 414: the request line is longer than [`LINE_MAX`].
+    /// 414: the request line is longer than [`super::LINE_MAX`].
     UriTooLong,
-    /// 431: the headers are longer than [`HEADERS_MAX`].
+    /// 431: the headers are longer than [`super::HEADERS_MAX`].
     HeadersTooLarge,
     /// 501: a method nobody defined.
     NotImplemented,
