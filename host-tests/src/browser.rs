@@ -181,12 +181,15 @@ pub fn check(
         Ok(())
     } else {
         Err(format!(
-            "the page in the browser: {} (DOM: {} bytes)",
+            "{CHECK_FAILED}{} (DOM: {} bytes)",
             wrong.join("; "),
             r.dom.len()
         ))
     }
 }
+
+/// How a failed [`check`] begins (its items follow, `; ` between them).
+pub const CHECK_FAILED: &str = "the page in the browser: ";
 
 /// How long a page load may take here (Chromium's start on a loaded
 /// machine included).

@@ -171,7 +171,7 @@ impl Web {
             seen_operating = seen.iter().any(|s| s.starts_with(&running));
             if loaded && !seen_operating {
                 failures.push(format!(
-                    "the page in the browser never showed {device} OPERATING during the run"
+                    "{NEVER_OPERATING} {device} OPERATING during the run"
                 ));
             }
             failures.extend(seen.into_iter().filter(|s| s.starts_with("load failed")));
@@ -211,6 +211,28 @@ impl Web {
         failures
     }
 }
+
+/// Whether a failure of the browser's check is about the page's state
+/// alone: it never showed OPERATING during the run, or after it showed
+/// another state, with the device's name and count right. In a run the
+/// host already failed (every reply right, only late or lost before the
+/// firmware: the robot's supervision tripped) that is the host's too: a
+/// starved Chromium renders no page in time, and a device whose
+/// controller tripped rightly leaves OPERATING (S1). A wrong name or
+/// count never is.
+pub fn browser_state_only(failure: &str) -> bool {
+    if failure.starts_with(NEVER_OPERATING) {
+        return true;
+    }
+    let Some(rest) = failure.strip_prefix(crate::browser::CHECK_FAILED) else {
+        return false;
+    };
+    let items = rest.split(" (DOM:").next().unwrap_or(rest);
+    items.split("; ").all(|item| item.starts_with("state "))
+}
+
+/// How the browser's failure to see OPERATING during the run begins.
+const NEVER_OPERATING: &str = "the page in the browser never showed";
 
 /// A catalogue's lines, each printed after `prefix`; its failures (the
 /// `FAIL` lines, or that it panicked).

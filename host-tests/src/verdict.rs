@@ -120,6 +120,16 @@ pub fn timer_verdict(cycle_ms: u32, p99: u64, max: u64) -> String {
     }
 }
 
+/// Whether every one of `failures` is of a kind a failed host explains:
+/// an HTTP connection that got nothing at all, or the browser's page
+/// state alone.
+fn host_class(failures: &[String]) -> bool {
+    failures.iter().all(|f| {
+        crate::http_attack::only_silence(std::slice::from_ref(f))
+            || crate::diagnostics::browser_state_only(f)
+    })
+}
+
 /// The run's verdict, as `cargo demo` gives it: the firmware still running,
 /// no panic or fault in its log, every reply right and on time. `name`
 /// starts the success line.
@@ -143,10 +153,14 @@ pub fn verdict(name: &str, ran: &Ran) -> Result<(), Failure> {
     }
     if !ran.http_failures.is_empty() {
         // Connections that got nothing at all, in a run whose robot
-        // messages the emulated NIC dropped too, are the host's (exit 3).
-        let host = crate::http_attack::only_silence(&ran.http_failures)
-            && ran.summary.lost > 0
+        // messages the emulated NIC dropped too, are the host's (exit 3);
+        // so is a browser that saw no OPERATING page in a run the host
+        // already failed (see `diagnostics::browser_state_only`).
+        let lost_before = ran.summary.lost > 0
             && LossSplit::lost_before_firmware(&ran.summary, ran.warm, &ran.log);
+        let host_run = lost_before || ran.summary.late_only();
+        let host = (crate::http_attack::only_silence(&ran.http_failures) && lost_before)
+            || (host_run && host_class(&ran.http_failures));
         return Err(Failure {
             reason: ran.http_failures.join("; "),
             late_only: host,
@@ -258,6 +272,19 @@ mod tests {
 
     /// Issue 42 #17: every reply right and only the timing failed is not
     /// called an error; a wrong reply is.
+    #[test]
+    fn only_the_browsers_page_state_is_excused_in_a_run_the_host_failed() {
+        let never = "the page in the browser never showed AnyDevice OPERATING during the run";
+        let state =
+            "the page in the browser: state \"ERROR 112602\", not OPERATING (DOM: 27400 bytes)";
+        let count = "the page in the browser: state \"ERROR 112602\", not OPERATING; answered 3, not within 10..=20 (DOM: 27400 bytes)";
+        let name = "the page in the browser: device name \"X\", not \"AnyDevice\" (DOM: 9 bytes)";
+        assert!(host_class(&[never.to_string(), state.to_string()]));
+        assert!(!host_class(&[never.to_string(), count.to_string()]));
+        assert!(!host_class(&[name.to_string()]));
+        assert!(!host_class(&["FAIL http oversize: 200".to_string()]));
+    }
+
     #[test]
     fn late_only_is_not_an_error() {
         let late = Failure {
