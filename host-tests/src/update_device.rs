@@ -3,7 +3,6 @@
 //! then what `/status.json` says of it.
 
 use crate::robot::http_get::{self, Put, Response};
-use rri_update::{Trailer, SIGNATURE_LEN, TRAILER_LEN};
 use std::time::Duration;
 
 /// How long a whole upload may take: the device's own limit
@@ -13,19 +12,7 @@ pub const TIMEOUT: Duration = Duration::from_secs(70);
 /// What the file says of itself (its trailer), without any check of the
 /// signature: that is the device's.
 pub fn describe(file: &[u8]) -> Result<String, String> {
-    if file.len() <= TRAILER_LEN + SIGNATURE_LEN {
-        return Err(format!(
-            "{} bytes: too short for an update file (an image, a {TRAILER_LEN}-byte trailer, a {SIGNATURE_LEN}-byte signature)",
-            file.len()
-        ));
-    }
-    let at = file.len() - SIGNATURE_LEN - TRAILER_LEN;
-    let raw: &[u8; TRAILER_LEN] = file[at..at + TRAILER_LEN]
-        .try_into()
-        .map_err(|_| "no trailer")?;
-    let t = Trailer::decode(raw).map_err(|e| {
-        format!("not an update file ({e:?}): make one with `cargo sign-image -- sign`")
-    })?;
+    let t = crate::update_file::trailer_of(file)?;
     let v = t.version;
     Ok(format!(
         "{} {}.{}.{}, an image of {} bytes linked at {:#010x}",

@@ -128,6 +128,26 @@ pub fn flat_image(elf: &[u8]) -> Result<(u32, Vec<u8>), String> {
     Ok((origin, image))
 }
 
+/// The trailer an update file says it has (read, not checked: the
+/// signature is the device's to check).
+pub fn trailer_of(file: &[u8]) -> Result<Trailer, String> {
+    let raw: [u8; TRAILER_LEN] = file
+        .len()
+        .checked_sub(TRAILER_LEN + SIGNATURE_LEN)
+        .filter(|_| file.len() > TRAILER_LEN + SIGNATURE_LEN)
+        .and_then(|at| file.get(at..at + TRAILER_LEN))
+        .and_then(|t| t.try_into().ok())
+        .ok_or_else(|| {
+            format!(
+                "{} bytes: too short for an update file (an image, a {TRAILER_LEN}-byte trailer, a {SIGNATURE_LEN}-byte signature)",
+                file.len()
+            )
+        })?;
+    Trailer::decode(&raw).map_err(|e| {
+        format!("not an update file ({e:?}): make one with `cargo sign-image -- sign`")
+    })
+}
+
 /// rri-sensor's version, from its Cargo.toml (what an image built from
 /// this checkout says it is).
 pub fn sensor_version() -> Result<String, String> {

@@ -13,7 +13,7 @@ mod service;
 use embassy_net::tcp::TcpSocket;
 use embassy_time::{Duration, Instant, Timer};
 use rri_diag::serve;
-use service::{device, exchange, status_of, with_service};
+use service::{device, exchange, status_of, timed_exchange, with_service};
 #[test]
 fn a_request_is_answered_whole_and_the_connection_closed() {
     let (out, [accepted, responses, aborted]) = with_service(
@@ -75,11 +75,7 @@ fn a_client_that_half_closes_after_its_request_is_still_answered() {
 #[test]
 fn a_half_open_connection_gets_408_after_the_request_timeout() {
     let (out, _) = with_service(
-        |stack| async move {
-            let start = Instant::now();
-            let r = exchange(stack, b"GET /metr", false).await;
-            (r, start.elapsed())
-        },
+        |stack| async move { timed_exchange(stack, b"GET /metr", false).await },
         30_000,
     );
     let (response, after) = out.expect("finished");

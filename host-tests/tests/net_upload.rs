@@ -7,9 +7,9 @@ mod memnet;
 mod service;
 
 use embassy_net::tcp::TcpSocket;
-use embassy_time::{Duration, Instant, Timer};
+use embassy_time::{Duration, Timer};
 use rri_diag::serve::{self, Desk};
-use service::{device, exchange, status_of, with_desk, with_service};
+use service::{device, exchange, status_of, timed_exchange, with_desk, with_service};
 
 /// A receiver that keeps what it is given (no flash, no signature): the
 /// service's half of an upload alone. A file is "good" when its bytes
@@ -123,11 +123,7 @@ fn a_stalled_upload_is_abandoned_after_the_body_stall_and_a_closed_one_at_once()
         request.extend_from_slice(&pattern(4_000));
         let (out, _) = with_desk(
             desk,
-            move |stack| async move {
-                let start = Instant::now();
-                let r = exchange(stack, &request, close).await;
-                (r, start.elapsed())
-            },
+            move |stack| async move { timed_exchange(stack, &request, close).await },
             30_000,
         );
         let (response, after) = out.expect("finished");

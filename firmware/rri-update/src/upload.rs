@@ -211,11 +211,6 @@ impl<DFU: NorFlash, STATE: NorFlash> Upload<DFU, STATE> {
         BlockingFirmwareState::new(&mut self.state, word)
     }
 
-    /// The declared length.
-    pub fn declared(&self) -> usize {
-        self.declared
-    }
-
     /// Bytes received so far.
     pub fn received(&self) -> usize {
         self.received

@@ -13,7 +13,7 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use host_tests::flash_model::{Flash, Power};
 use host_tests::update_file::{self, key_dir, read_key, PUBLIC, SECRET};
-use rri_update::{Running, Trailer, Upload, Version, SIGNATURE_LEN, TRAILER_LEN};
+use rri_update::{Running, Upload, Version};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -141,12 +141,7 @@ fn run(args: Args) -> Result<(), String> {
                 None => read_key(&key_dir()?.join(PUBLIC))?,
             };
             let n = bytes.len();
-            let trailer: [u8; TRAILER_LEN] = n
-                .checked_sub(TRAILER_LEN + SIGNATURE_LEN)
-                .and_then(|at| bytes.get(at..at + TRAILER_LEN))
-                .and_then(|t| t.try_into().ok())
-                .ok_or("too short to be an update file")?;
-            let t = Trailer::decode(&trailer).map_err(|e| format!("not an update file: {e:?}"))?;
+            let t = update_file::trailer_of(&bytes)?;
             println!(
                 "{}: for {} version {}.{}.{}, {} bytes of image linked at {:#010x}",
                 file.display(),

@@ -205,6 +205,17 @@ pub async fn exchange(
     Ok(got)
 }
 
+/// [`exchange`], and how long it took in mock time.
+pub async fn timed_exchange(
+    stack: Stack<'_>,
+    request: &[u8],
+    close_after_request: bool,
+) -> (Result<Vec<u8>, String>, Duration) {
+    let start = Instant::now();
+    let r = exchange(stack, request, close_after_request).await;
+    (r, start.elapsed())
+}
+
 pub fn status_of(response: &[u8]) -> Option<u16> {
     std::str::from_utf8(response.get(9..12)?).ok()?.parse().ok()
 }
