@@ -13,13 +13,37 @@
 
 use std::path::{Path, PathBuf};
 
-/// Boards with a memory map of their own, by cargo feature, and whether
-/// their peripheral access crate supplies `device.x` (the weak aliases of
-/// the interrupt handlers, which cortex-m-rt's own `link.x` includes when
-/// its `device` feature is on).
-const OWN_MAP: &[(&str, &str, bool)] = &[
-    ("mps2-an500", "memory/mps2-an500.x", false),
-    ("nucleo-h743zi", "memory/nucleo-h743zi.x", true),
+/// A board with a memory map of its own.
+struct OwnMap {
+    /// Its cargo feature.
+    feature: &'static str,
+    /// The application's map.
+    map: &'static str,
+    /// Its bootloader's map (hal-board's `boot` feature), if it has one.
+    boot: Option<&'static str>,
+    /// The flash partitions both maps link with, ahead of either.
+    flash: Option<&'static str>,
+    /// Whether its peripheral access crate supplies `device.x` (the weak
+    /// aliases of the interrupt handlers, which cortex-m-rt's own `link.x`
+    /// includes when its `device` feature is on).
+    device_x: bool,
+}
+
+const OWN_MAP: &[OwnMap] = &[
+    OwnMap {
+        feature: "mps2-an500",
+        map: "memory/mps2-an500.x",
+        boot: Some("memory/mps2-an500-boot.x"),
+        flash: Some("memory/mps2-an500-flash.x"),
+        device_x: false,
+    },
+    OwnMap {
+        feature: "nucleo-h743zi",
+        map: "memory/nucleo-h743zi.x",
+        boot: None,
+        flash: None,
+        device_x: true,
+    },
 ];
 
 fn main() {
@@ -27,15 +51,32 @@ fn main() {
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("set by cargo"));
     println!("cargo:rerun-if-changed=build.rs");
     let bare_metal = std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none");
-    let board = OWN_MAP.iter().find(|(feature, _, _)| {
-        let var = format!("CARGO_FEATURE_{}", feature.to_uppercase().replace('-', "_"));
+    let board = OWN_MAP.iter().find(|b| {
+        let var = format!(
+            "CARGO_FEATURE_{}",
+            b.feature.to_uppercase().replace('-', "_")
+        );
         std::env::var_os(var).is_some()
     });
+    let boot = std::env::var_os("CARGO_FEATURE_BOOT").is_some();
     let script = match board {
-        Some((_, map, device_x)) if bare_metal => {
+        Some(board) if bare_metal => {
+            let map = match (boot, board.boot) {
+                (false, _) => board.map,
+                (true, Some(map)) => map,
+                (true, None) => panic!(
+                    "hal-board's `boot` feature: the board `{}` has no bootloader yet",
+                    board.feature
+                ),
+            };
             let map = manifest.join(map);
             println!("cargo:rerun-if-changed={}", map.display());
             let mut memory = read(&map);
+            if let Some(flash) = board.flash {
+                let flash = manifest.join(flash);
+                println!("cargo:rerun-if-changed={}", flash.display());
+                memory = format!("{}\n{memory}", read(&flash));
+            }
             if std::env::var_os("CARGO_FEATURE_REHOST_BROKEN_BSS").is_some() {
                 // A broken variant for the rehosting test alone (Cargo.toml).
                 memory = memory.replace("} INSERT BEFORE .bss;", "} INSERT AFTER .bss;");
@@ -50,7 +91,7 @@ fn main() {
                     .join("\n");
             }
             let mut body = cortex_m_rt_body(&manifest);
-            if *device_x {
+            if board.device_x {
                 // As cortex-m-rt's build script appends it: after
                 // `EXTERN(__INTERRUPTS)`, or the weak aliases would win over
                 // the firmware's handlers.

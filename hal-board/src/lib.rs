@@ -101,19 +101,37 @@ pub struct LinkInfo {
 }
 
 /// Stack painting and its high-water mark (every board).
-#[cfg(all(any(feature = "mps2-an500", feature = "stm32"), target_os = "none"))]
+#[cfg(all(
+    any(feature = "mps2-an500", feature = "stm32"),
+    not(feature = "boot"),
+    target_os = "none"
+))]
 pub mod stack;
 
 /// `.diag_ram`, zeroed at start-up (every board).
-#[cfg(all(any(feature = "mps2-an500", feature = "stm32"), target_os = "none"))]
+#[cfg(all(
+    any(feature = "mps2-an500", feature = "stm32"),
+    not(feature = "boot"),
+    target_os = "none"
+))]
 pub mod sections;
 
 /// The HardFault handler (every board).
-#[cfg(all(any(feature = "mps2-an500", feature = "stm32"), target_os = "none"))]
+#[cfg(all(
+    any(feature = "mps2-an500", feature = "stm32"),
+    not(feature = "boot"),
+    target_os = "none"
+))]
 pub mod fault;
 
 #[cfg(all(feature = "mps2-an500", target_os = "none"))]
+pub mod mps2_flash;
+
+#[cfg(all(feature = "mps2-an500", not(feature = "boot"), target_os = "none"))]
 pub mod mps2_an500;
+
+#[cfg(all(feature = "mps2-an500", feature = "boot", target_os = "none"))]
+pub mod mps2_an500_boot;
 
 #[cfg(all(feature = "stm32", target_os = "none"))]
 pub mod nucleo;
@@ -134,8 +152,11 @@ compile_error!("choose one board feature: mps2-an500, nucleo-f767zi or nucleo-h7
 compile_error!("`stm32` is not a board: choose nucleo-f767zi or nucleo-h743zi");
 
 /// The board this firmware is built for.
-#[cfg(all(feature = "mps2-an500", target_os = "none"))]
+#[cfg(all(feature = "mps2-an500", not(feature = "boot"), target_os = "none"))]
 pub use mps2_an500 as board;
+/// The board this bootloader is built for.
+#[cfg(all(feature = "mps2-an500", feature = "boot", target_os = "none"))]
+pub use mps2_an500_boot as board;
 /// The board this firmware is built for.
 #[cfg(all(feature = "stm32", target_os = "none"))]
 pub use nucleo as board;

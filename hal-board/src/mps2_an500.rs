@@ -217,49 +217,32 @@ pub mod update {
     /// The board an update file must name (`cargo sign-image -- sign
     /// --board qemu`).
     pub const BOARD: &str = "mps2-an500";
-    /// Where the image is linked: the active partition's start.
-    pub const ORIGIN: u32 = 0;
-    /// No bootloader runs on this board yet: a marked image is not
-    /// swapped in (the status says so).
+    /// Where the image is linked: the active partition's start
+    /// (`memory/mps2-an500-flash.x`; an update file linked elsewhere is
+    /// refused, so a value that disagreed with the map would refuse every
+    /// file, which CI's update runs would show).
+    pub const ORIGIN: u32 = 0x0010_0000;
+    /// The bootloader (firmware/rri-boot) starts this image, but the image
+    /// does not yet restart to swap a marked one in, nor confirm itself
+    /// after a swap: the status says a marked image waits.
     pub const SWAPS: bool = false;
     /// The demonstration key, which anyone can sign with, may be built
     /// into this board's image (it is no product).
     pub const DEMO_KEY_ALLOWED: bool = true;
 
-    extern "C" {
-        static mut __update_state: u8;
-        static __update_state_len: u8;
-        static mut __update_dfu: u8;
-        static __update_dfu_len: u8;
-        static __update_active_len: u8;
-    }
-
-    /// The active partition's bytes (the memory map's FLASH): the most an
-    /// image may have.
+    /// The active partition's bytes: the most an image may have.
     pub fn active() -> usize {
-        // A linker symbol's address, never read through.
-        core::ptr::addr_of!(__update_active_len) as usize
+        crate::mps2_flash::active_len()
     }
 
-    /// The update and state partitions: handles on the memory map's
-    /// UPDATE region (`memory/mps2-an500.x`, RAM that QEMU's reset leaves
-    /// alone). Every call makes new handles on the same bytes: the caller
-    /// uses one pair at a time (the update desk's mutex).
+    /// The update and state partitions (`memory/mps2-an500-flash.x`, RAM
+    /// that QEMU's reset leaves alone). Every call makes new handles on
+    /// the same bytes: the caller uses one pair at a time (the update
+    /// desk's mutex).
     pub fn partitions() -> (RamFlash, RamFlash) {
-        // SAFETY: linker symbols: their addresses are the partitions'
-        // starts and lengths; no section is linked into them (the memory
-        // map's UPDATE region holds none).
-        unsafe {
-            let dfu = RamFlash::new(
-                core::ptr::addr_of_mut!(__update_dfu),
-                core::ptr::addr_of!(__update_dfu_len) as usize,
-            );
-            let state = RamFlash::new(
-                core::ptr::addr_of_mut!(__update_state),
-                core::ptr::addr_of!(__update_state_len) as usize,
-            );
-            (dfu, state)
-        }
+        // SAFETY: the desk's mutex holds one pair at a time; the
+        // bootloader is not running.
+        unsafe { crate::mps2_flash::dfu_and_state() }
     }
 }
 

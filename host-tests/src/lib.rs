@@ -33,6 +33,7 @@ pub mod memory_map;
 pub mod probe;
 pub mod qemu;
 pub mod qemu_bench;
+pub mod qemu_flash;
 pub mod rehost;
 pub mod replay;
 pub mod run_args;

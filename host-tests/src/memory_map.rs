@@ -4,10 +4,10 @@
 
 use std::path::Path;
 
-/// `MEMORY` regions of a linker script: (name, origin, length). A value
-/// is a number (decimal, `0x…`, with `K` or `M`) or a difference of two
-/// (`384K - 128`: a region that leaves room at its end).
-pub fn regions(script: &str) -> Result<Vec<(String, u64, u64)>, String> {
+/// A linker script's number: decimal or `0x…`, with `K` or `M`, or a sum
+/// or difference of two (`384K - 128`: a region that leaves room at its
+/// end; `960K + 4K`).
+pub fn number(t: &str) -> Option<u64> {
     let one = |t: &str| -> Option<u64> {
         let t = t.trim();
         let (digits, scale) = match t.strip_suffix('K') {
@@ -21,15 +21,21 @@ pub fn regions(script: &str) -> Result<Vec<(String, u64, u64)>, String> {
             Some(h) => u64::from_str_radix(h, 16).ok()?,
             None => digits.parse().ok()?,
         };
-        Some(v * scale)
+        v.checked_mul(scale)
     };
-    let number = |t: &str| -> Option<u64> {
-        let t = t.trim().trim_end_matches(',');
-        match t.split_once(" - ") {
-            Some((a, b)) => one(a)?.checked_sub(one(b)?),
-            None => one(t),
-        }
-    };
+    let t = t.trim().trim_end_matches(',');
+    if let Some((a, b)) = t.split_once(" - ") {
+        one(a)?.checked_sub(one(b)?)
+    } else if let Some((a, b)) = t.split_once(" + ") {
+        one(a)?.checked_add(one(b)?)
+    } else {
+        one(t)
+    }
+}
+
+/// `MEMORY` regions of a linker script: (name, origin, length), each
+/// value a [`number`].
+pub fn regions(script: &str) -> Result<Vec<(String, u64, u64)>, String> {
     let mut out = Vec::new();
     for line in script.lines() {
         let Some((name, rest)) = line.split_once(':') else {
@@ -123,14 +129,17 @@ mod tests {
 
     #[test]
     fn memory_maps_parse() {
+        // The application in the active partition (mps2-an500-flash.x).
         assert_eq!(
             map(MEMORY_MAP),
             [
-                ("FLASH".to_string(), 0, 1 << 20),
-                ("UPDATE".to_string(), 1 << 20, 3 << 20),
+                ("FLASH".to_string(), 0x0010_0000, 960 << 10),
                 ("RAM".to_string(), 0x2000_0000, (4 << 20) - 128)
             ]
         );
+        assert_eq!(number("960K + 4K"), Some(964 << 10));
+        assert_eq!(number("4096K - 128"), Some((4 << 20) - 128));
+        assert_eq!(number("LENGTH(FLASH)"), None);
         assert_eq!(
             map("memory.x")[0],
             ("FLASH".to_string(), 0x0800_0000, 2 << 20)
@@ -153,22 +162,30 @@ mod tests {
         let e = check_memory_map(&f767, &map(MEMORY_MAP)).unwrap_err();
         assert!(e.contains("not at the board's FLASH origin"), "{e}");
         let qemu = [
-            (".vector_table".to_string(), 0, 0x400),
-            (".text".to_string(), 0x400, 0x1000),
+            (".vector_table".to_string(), 0x0010_0000, 0x400),
+            (".text".to_string(), 0x0010_0400, 0x1000),
             (".bss".to_string(), 0x2000_0000, 0x100),
         ];
+        // One linked at 0, where the bootloader sits now, is not.
+        let at_zero = [
+            (".vector_table".to_string(), 0, 0x400),
+            (".text".to_string(), 0x400, 0x1000),
+        ];
+        assert!(check_memory_map(&at_zero, &map(MEMORY_MAP))
+            .unwrap_err()
+            .contains("not at the board's FLASH origin"));
         assert!(check_memory_map(&qemu, &map(MEMORY_MAP)).is_ok());
         let too_big = [
-            (".vector_table".to_string(), 0, 0x400),
+            (".vector_table".to_string(), 0x0010_0000, 0x400),
             (".bss".to_string(), 0x203f_ff00, 0x200),
         ];
         assert!(check_memory_map(&too_big, &map(MEMORY_MAP))
             .unwrap_err()
             .contains(".bss"));
-        // An image past its 1 MiB would run into the update partitions.
+        // An image past its 960 KiB would run into the state partition.
         let into_update = [
-            (".vector_table".to_string(), 0, 0x400),
-            (".text".to_string(), 0x400, 1 << 20),
+            (".vector_table".to_string(), 0x0010_0000, 0x400),
+            (".text".to_string(), 0x0010_0400, 960 << 10),
         ];
         assert!(check_memory_map(&into_update, &map(MEMORY_MAP))
             .unwrap_err()

@@ -279,8 +279,7 @@ impl Qemu {
         ])
         .args(["-semihosting-config", "enable=on,target=native"])
         .args(["-nic", nic])
-        .arg("-kernel")
-        .arg(&boot.elf);
+        .args(crate::qemu_flash::load_args(&boot.elf)?);
         if let Ok(dump) = std::env::var("RRI_QEMU_DUMP") {
             cmd.args([
                 "-object",

@@ -29,6 +29,7 @@
 pub mod boot;
 mod device;
 pub mod image;
+pub mod lifecycle;
 mod upload;
 
 pub use device::{Device, Outcome, Receive};

@@ -1,0 +1,65 @@
+//! The bootloader: the first code a board runs, from its own partition.
+//!
+//! 1. Where the board has no probe to put the first image in place (QEMU:
+//!    its loader writes a factory image beside the bootloader), it copies
+//!    that image into the active partition, once, while the partition
+//!    holds none.
+//! 2. It finishes what embassy-boot left: an interrupted rollback or
+//!    confirmation ([`rri_update::boot::prepare`]), then the swap a marked
+//!    update asks for, or the swap back when the image swapped in last
+//!    time did not confirm itself. Every step is power-cut safe: a cut
+//!    anywhere is finished at the next start (the host's power-cut test,
+//!    `host-tests/tests/update_power_cut.rs`, cuts at every flash
+//!    operation).
+//! 3. It starts the active image.
+//!
+//! It says nothing when all is well; a bootloader that cannot start an
+//! image says why and stops (the board's `fail`).
+#![cfg_attr(target_os = "none", no_std)]
+#![cfg_attr(target_os = "none", no_main)]
+
+#[cfg(target_os = "none")]
+mod boot {
+    use embassy_boot::BootLoaderConfig;
+    use hal_board::board;
+
+    /// embassy-boot's page buffer: one erase unit of the board's flash.
+    #[repr(C, align(32))]
+    struct Page([u8; board::PAGE]);
+
+    #[cortex_m_rt::entry]
+    fn main() -> ! {
+        let Some(board::Flash {
+            mut active,
+            dfu,
+            state,
+        }) = board::Flash::take()
+        else {
+            board::fail("the partitions were taken twice")
+        };
+        if !board::active_holds_image(&mut active) {
+            if board::install_factory(&mut active).is_err() {
+                board::fail("cannot write the factory image into the active partition");
+            }
+            if !board::active_holds_image(&mut active) {
+                board::fail(
+                    "no image in the active partition, and none in the factory region to install",
+                );
+            }
+        }
+        let mut page = Page([0; board::PAGE]);
+        let config = BootLoaderConfig {
+            active: &mut active,
+            dfu,
+            state,
+        };
+        if rri_update::boot::prepare(config, &mut page.0).is_err() {
+            board::fail("the swap's state could not be read or finished (flash error)");
+        }
+        board::start_active(active)
+    }
+}
+
+/// The host build (`cargo test`, clippy) has nothing to run.
+#[cfg(not(target_os = "none"))]
+fn main() {}
