@@ -23,6 +23,33 @@ fn main() {
         println!("cargo:rustc-cfg=rri_http");
     }
     update_key(&workspace, http);
+    image_version();
+}
+
+/// The image's version (`src/version.rs`): `RRI_IMAGE_VERSION` when set,
+/// else the package's; refused unless it is major.minor.patch, each a
+/// number below 2^16 (what an update file's trailer holds).
+fn image_version() {
+    println!("cargo:rerun-if-env-changed=RRI_IMAGE_VERSION");
+    let (version, from) = match std::env::var("RRI_IMAGE_VERSION") {
+        Ok(v) if !v.trim().is_empty() => (v.trim().to_string(), "RRI_IMAGE_VERSION"),
+        _ => (
+            std::env::var("CARGO_PKG_VERSION").expect("cargo sets CARGO_PKG_VERSION"),
+            "rri-sensor's Cargo.toml",
+        ),
+    };
+    let parts: Vec<&str> = version.split('.').collect();
+    let numbers = parts.len() == 3
+        && parts.iter().all(|p| {
+            !p.is_empty()
+                && p.len() <= 5
+                && p.bytes().all(|b| b.is_ascii_digit())
+                && p.parse::<u32>().is_ok_and(|n| n < 1 << 16)
+        });
+    if !numbers {
+        panic!("{from}: {version:?} is not an image version: major.minor.patch, each a number below 65536 (e.g. RRI_IMAGE_VERSION=1.4.0)");
+    }
+    println!("cargo:rustc-env=RRI_IMAGE_VERSION={version}");
 }
 
 /// Update in the cell (issue 43): cfg `rri_update` when the board has

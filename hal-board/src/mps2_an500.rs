@@ -222,10 +222,10 @@ pub mod update {
     /// refused, so a value that disagreed with the map would refuse every
     /// file, which CI's update runs would show).
     pub const ORIGIN: u32 = 0x0010_0000;
-    /// The bootloader (firmware/rri-boot) starts this image, but the image
-    /// does not yet restart to swap a marked one in, nor confirm itself
-    /// after a swap: the status says a marked image waits.
-    pub const SWAPS: bool = false;
+    /// The bootloader (firmware/rri-boot) swaps a marked image in at the
+    /// next reset, and this image restarts into it once its controller is
+    /// not OPERATING (`rri_update::lifecycle`).
+    pub const SWAPS: bool = true;
     /// The demonstration key, which anyone can sign with, may be built
     /// into this board's image (it is no product).
     pub const DEMO_KEY_ALLOWED: bool = true;
@@ -410,6 +410,13 @@ pub fn exit(code: i32) -> ! {
 /// `-no-reboot`); semihosting has already written the log.
 pub(crate) fn reset() -> ! {
     cortex_m::peripheral::SCB::sys_reset()
+}
+
+/// Restarts the board on purpose (into the bootloader's swap of an
+/// update). The crash record holds no crash, so the next start reports a
+/// software reset ([`crate::reset`]).
+pub fn restart() -> ! {
+    reset()
 }
 
 #[panic_handler]

@@ -42,6 +42,7 @@ pub mod setup;
 pub mod update_catalogue;
 pub mod update_device;
 pub mod update_file;
+pub mod update_swap;
 pub mod verdict;
 
 /// The robot-controller simulator, a crate of its own (`rri-robot`) so

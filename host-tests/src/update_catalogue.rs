@@ -1,6 +1,8 @@
 //! `cargo demo -- --update-catalogue` (issue 43): every kind of update
 //! file a device must refuse, then one it must take, pushed to the QEMU
-//! board over its diagnostics port while the robot is served; the demo's
+//! board over its diagnostics port while the robot is served, and that
+//! one cancelled (`DELETE /firmware`) before the robot stops, when the
+//! device would restart into it; the demo's
 //! verdict then says whether every robot message was still answered in
 //! time. Each case checks the status code, the device's reason, and that
 //! `/status.json` says the same afterwards.
@@ -10,7 +12,7 @@
 //! built into QEMU images without `RRI_UPDATE_KEY`).
 
 use crate::update_device::{self, answer};
-use crate::update_file::{flat_image, read_key, sensor_version, signed_file};
+use crate::update_file::{flat_image, image_version, read_key, sensor_version, signed_file};
 use rri_update::Version;
 use std::io::Write;
 use std::net::{SocketAddr, TcpStream};
@@ -57,6 +59,16 @@ pub fn run(http: SocketAddr, elf: &Path) -> Result<Vec<String>, Vec<String>> {
         }
         check(case.what, one(&to, case));
     }
+    // The marked file cancelled (or the device would restart into it once
+    // the robot stops), then a second cancellation finds nothing.
+    check(
+        "cancel the marked one",
+        cancel(&to, 200, "cancelled: the marked update is not swapped in"),
+    );
+    check(
+        "cancel with nothing marked",
+        cancel(&to, 409, "no update is marked"),
+    );
     if failed {
         Err(lines)
     } else {
@@ -76,7 +88,7 @@ fn one(to: &str, case: &Case) -> Result<String, String> {
             r.status, case.status, case.words
         ));
     }
-    let (_, last) = update_device::status(to)?;
+    let last = update_device::status(to)?.last;
     if last.as_deref() != Some(said.as_str()) {
         return Err(format!(
             "the answer was {said:?} but /status.json's update.last says {last:?}"
@@ -88,6 +100,25 @@ fn one(to: &str, case: &Case) -> Result<String, String> {
         case.sent,
         took.as_secs_f64()
     ))
+}
+
+/// `DELETE /firmware`, its answer and the status afterwards.
+fn cancel(to: &str, status: u16, words: &str) -> Result<String, String> {
+    let r = update_device::cancel(to)?;
+    let said = answer(&r);
+    if r.status != status || !said.contains(words) {
+        return Err(format!(
+            "{} {said:?}, expected {status} with {words:?}",
+            r.status
+        ));
+    }
+    let last = update_device::status(to)?.last;
+    if last.as_deref() != Some(said.as_str()) {
+        return Err(format!(
+            "the answer was {said:?} but /status.json's update.last says {last:?}"
+        ));
+    }
+    Ok(format!("{} {said}", r.status))
 }
 
 /// A first upload that has sent half its body holds the desk: a second
@@ -105,7 +136,7 @@ fn two_at_once(to: &str, http: SocketAddr, file: &[u8]) -> Result<String, String
     // Until the device shows it receiving.
     let deadline = Instant::now() + Duration::from_secs(10);
     loop {
-        let (_, last) = update_device::status(to)?;
+        let last = update_device::status(to)?.last;
         if last.as_deref().is_some_and(|l| l.starts_with("receiving")) {
             break;
         }
@@ -129,7 +160,7 @@ fn two_at_once(to: &str, http: SocketAddr, file: &[u8]) -> Result<String, String
     // device's BODY_STALL).
     let deadline = Instant::now() + Duration::from_secs(10);
     loop {
-        let (_, last) = update_device::status(to)?;
+        let last = update_device::status(to)?.last;
         if last.as_deref().is_some_and(|l| l.starts_with("abandoned")) {
             return Ok(format!(
                 "409 {said}; the first, cut off: {}",
@@ -150,7 +181,10 @@ fn cases(elf: &Path) -> Result<Vec<Case>, String> {
     let bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
     let (origin, image) = flat_image(&bytes)?;
     let seed = read_key(&crate::workspace().join("firmware/rri-update/demo-key/update-key"))?;
-    let running = sensor_version()?;
+    let running = match image_version(&bytes)? {
+        Some(v) => v,
+        None => sensor_version()?,
+    };
     let running = Version::parse(&running).ok_or_else(|| format!("{running:?} is no version"))?;
     let newer = Version {
         patch: running.patch + 1,

@@ -148,6 +148,32 @@ pub fn trailer_of(file: &[u8]) -> Result<Trailer, String> {
     })
 }
 
+/// The version a firmware ELF reports (rri-sensor's `RRI_IMAGE_VERSION`
+/// symbol: the text, NUL-terminated); `None` for an ELF without it.
+pub fn image_version(elf: &[u8]) -> Result<Option<String>, String> {
+    use object::{Object, ObjectSection, ObjectSymbol};
+    let file = object::File::parse(elf).map_err(|e| format!("not an ELF: {e}"))?;
+    let Some(symbol) = file.symbols().find(|s| s.name() == Ok("RRI_IMAGE_VERSION")) else {
+        return Ok(None);
+    };
+    let section = symbol
+        .section_index()
+        .and_then(|i| file.section_by_index(i).ok())
+        .ok_or("the ELF's RRI_IMAGE_VERSION lies in no section")?;
+    let data = section.data().map_err(|e| e.to_string())?;
+    let from = symbol
+        .address()
+        .checked_sub(section.address())
+        .ok_or("the ELF's RRI_IMAGE_VERSION lies before its section")? as usize;
+    let bytes = data
+        .get(from..from + symbol.size() as usize)
+        .ok_or("the ELF's RRI_IMAGE_VERSION runs past its section")?;
+    let text = bytes.split(|&b| b == 0).next().unwrap_or(&[]);
+    std::str::from_utf8(text)
+        .map(|t| Some(t.to_string()))
+        .map_err(|_| "the ELF's RRI_IMAGE_VERSION is not text".to_string())
+}
+
 /// rri-sensor's version, from its Cargo.toml (what an image built from
 /// this checkout says it is).
 pub fn sensor_version() -> Result<String, String> {

@@ -55,6 +55,18 @@ impl rri_update::Receive for Sink {
         .unwrap())
     }
     fn abandon(&mut self) {}
+    fn cancel(&mut self, on_trial: bool) -> Result<(), rri_update::Refused> {
+        // A marked sink is one whose last file was whole.
+        if on_trial {
+            return Err(rri_update::Refused::OnTrial);
+        }
+        let mut got = self.got.lock().unwrap();
+        if got.is_empty() {
+            return Err(rri_update::Refused::NothingMarked);
+        }
+        got.clear();
+        Ok(())
+    }
     fn swaps(&self) -> bool {
         true
     }
@@ -103,7 +115,7 @@ fn an_upload_reaches_the_receiver_whole_and_its_outcome_is_the_answer() {
     assert_eq!(status_of(&response), Some(200), "{}", body_of(&response));
     assert_eq!(
         body_of(&response),
-        "version 1.2.3 checked and marked: it is swapped in at the next reset"
+        "version 1.2.3 checked and marked: the device restarts into it once its controller is not OPERATING"
     );
     assert_eq!(*got.lock().unwrap(), file);
     assert_eq!((accepted, responses, aborted), (1, 1, 0));

@@ -3,7 +3,8 @@
 //! (`hal_board::ram_flash`: a NOR flash's rules over RAM), driven as the
 //! service drives it: out-of-order calls refused with a type, a second
 //! `begin` dropping the first, a whole file checked and marked, the next
-//! upload refused until the marked one is dealt with.
+//! upload refused until the marked one is dealt with, and a marked one
+//! cancelled (but not an image's own trial).
 
 use hal_board::ram_flash::{RamFlash, SECTOR};
 use rri_update::{
@@ -89,6 +90,22 @@ fn the_receiver_takes_one_upload_at_a_time_and_marks_only_a_checked_file() {
         "one marked already"
     );
     d.abandon();
+    // On trial (as the running image would be after its own swap, whose
+    // state also says swap), the mark is not cancelled: only the image's
+    // confirmation or its rollback ends that.
+    assert_eq!(d.cancel(true), Err(Refused::OnTrial));
+    assert_eq!(rri_update::state(&mut state, &mut [0; 4]), Ok(State::Swap));
+    // Cancelled before its swap: the state says boot, and a new upload is
+    // taken again.
+    assert_eq!(d.cancel(false), Ok(()));
+    assert_eq!(rri_update::state(&mut state, &mut [0; 4]), Ok(State::Boot));
+    assert_eq!(d.cancel(false), Err(Refused::NothingMarked));
+    d.begin(f.len()).unwrap();
+    for piece in f.chunks(4096) {
+        d.push(piece).unwrap();
+    }
+    assert!(d.finish(false).is_ok(), "marked again after the cancel");
+    assert_eq!(rri_update::state(&mut state, &mut [0; 4]), Ok(State::Swap));
     assert_eq!(
         f.len(),
         5000 + TRAILER_LEN + SIGNATURE_LEN,

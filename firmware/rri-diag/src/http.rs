@@ -78,6 +78,8 @@ pub struct Request {
     pub gzip: bool,
     /// `PUT /firmware`: the body that follows the head.
     pub body: Option<Body>,
+    /// `DELETE /firmware`: cancel a marked update before its swap.
+    pub cancel: bool,
 }
 
 /// The body of a `PUT /firmware`.
@@ -250,6 +252,14 @@ impl Parser {
         if request.route != Route::Firmware {
             return Parsed::Request(request);
         }
+        if request.cancel {
+            // A cancellation has no body: one would be another request's
+            // bytes, which are never read.
+            return match (self.transfer, self.length, self.length_bad) {
+                (false, None | Some(0), false) => Parsed::Request(request),
+                _ => Parsed::Refused(Status::BadRequest),
+            };
+        }
         if self.transfer {
             return Parsed::Refused(Status::NotImplemented);
         }
@@ -382,10 +392,11 @@ fn request_line(line: &[u8], updates: bool) -> Result<Request, Status> {
     if method.is_empty() || !method.iter().all(|&b| is_tchar(b)) {
         return Err(Status::BadRequest);
     }
-    let (head_only, put) = match method {
-        b"GET" => (false, false),
-        b"HEAD" => (true, false),
-        b"PUT" if updates => (false, true),
+    let (head_only, put, cancel) = match method {
+        b"GET" => (false, false, false),
+        b"HEAD" => (true, false, false),
+        b"PUT" if updates => (false, true, false),
+        b"DELETE" if updates => (false, false, true),
         m if KNOWN_METHODS.contains(&m) => return Err(Status::MethodNotAllowed),
         _ => return Err(Status::NotImplemented),
     };
@@ -411,8 +422,9 @@ fn request_line(line: &[u8], updates: bool) -> Result<Request, Status> {
         b"/firmware" if updates => Route::Firmware,
         _ => return Err(Status::NotFound),
     };
-    // `PUT` is for the firmware alone, and the firmware is only `PUT`.
-    match (put, route == Route::Firmware) {
+    // `PUT` and `DELETE` are for the firmware alone, and the firmware
+    // takes only those.
+    match (put || cancel, route == Route::Firmware) {
         (true, false) => return Err(Status::MethodNotAllowed),
         (false, true) => return Err(Status::PutOnly),
         _ => {}
@@ -426,6 +438,7 @@ fn request_line(line: &[u8], updates: bool) -> Result<Request, Status> {
         head_only,
         gzip: false,
         body,
+        cancel,
     })
 }
 

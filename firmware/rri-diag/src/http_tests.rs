@@ -12,6 +12,7 @@ fn ok(route: Route) -> Parsed {
         head_only: false,
         gzip: false,
         body: None,
+        cancel: false,
     })
 }
 
@@ -37,6 +38,7 @@ fn the_three_paths_with_crlf_or_bare_lf_and_any_split() {
             head_only: true,
             gzip: false,
             body: None,
+            cancel: false,
         })
     );
 }
@@ -49,6 +51,7 @@ fn accept_encoding_gzip_is_seen_in_any_case_and_split() {
         head_only: false,
         gzip: true,
         body: None,
+        cancel: false,
     });
     for split in 0..req.len() {
         let mut p = Parser::new();
@@ -213,6 +216,7 @@ fn put(length: u32, force: bool) -> Parsed {
         head_only: false,
         gzip: false,
         body: Some(Body { length, force }),
+        cancel: false,
     })
 }
 
@@ -307,4 +311,63 @@ fn put_firmware_needs_one_plain_content_length_and_other_methods_stay_refused() 
         with(b"GET /metrics HTTP/1.1\r\nContent-Length: x\r\n\r\n"),
         ok(Route::Metrics)
     );
+}
+
+#[test]
+fn delete_firmware_cancels_without_a_body_and_only_with_updates_built_in() {
+    let cancel = Parsed::Request(Request {
+        route: Route::Firmware,
+        head_only: false,
+        gzip: false,
+        body: None,
+        cancel: true,
+    });
+    let with = |bytes: &[u8]| Parser::with_updates().feed(bytes);
+    assert_eq!(
+        with(b"DELETE /firmware HTTP/1.1\r\nHost: d\r\n\r\n"),
+        cancel
+    );
+    assert_eq!(
+        with(b"DELETE /firmware HTTP/1.1\r\nContent-Length: 0\r\n\r\n"),
+        cancel
+    );
+    for (req, status) in [
+        // A body would be another request's bytes, never read.
+        (
+            &b"DELETE /firmware HTTP/1.1\r\nContent-Length: 3\r\n\r\nabc"[..],
+            Status::BadRequest,
+        ),
+        (
+            b"DELETE /firmware HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n",
+            Status::BadRequest,
+        ),
+        (
+            b"DELETE /status.json HTTP/1.1\r\n\r\n",
+            Status::MethodNotAllowed,
+        ),
+        (b"DELETE /nothing HTTP/1.1\r\n\r\n", Status::NotFound),
+    ] {
+        assert_eq!(
+            with(req),
+            Parsed::Refused(status),
+            "{}",
+            String::from_utf8_lossy(req)
+        );
+    }
+    // Read-only: DELETE is 405 like any other method it does not take.
+    assert_eq!(
+        parse(b"DELETE /firmware HTTP/1.1\r\n\r\n"),
+        Parsed::Refused(Status::MethodNotAllowed)
+    );
+    // /firmware's 405 names both methods it takes.
+    struct All(Vec<u8>);
+    impl super::super::Out for All {
+        fn bytes(&mut self, b: &[u8]) {
+            self.0.extend_from_slice(b);
+        }
+    }
+    let mut a = All(Vec::new());
+    error(&mut a, Status::PutOnly);
+    let text = String::from_utf8(a.0).unwrap();
+    assert!(text.contains("\r\nAllow: PUT, DELETE\r\n"), "{text}");
 }

@@ -180,6 +180,7 @@ pub fn write(out: &mut dyn Out, id: &Identity, s: &Status) {
         Some(u) => m.object("update", &mut |o| {
             o.flag("swaps", u.swaps);
             o.text("outcome", crate::update::name(&u.last));
+            o.text("image", u.image.name());
             o.quoted("last", &mut |w| crate::update::line(w, u));
         }),
         _ => m.null("update"),

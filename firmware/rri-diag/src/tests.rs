@@ -136,6 +136,7 @@ fn status() -> Status {
         update: Some(crate::update::Update {
             swaps: true,
             last: rri_update::Outcome::Refused(rri_update::Refused::OtherBoard),
+            image: rri_update::lifecycle::Image::OnTrial,
         }),
     }
 }
@@ -155,6 +156,7 @@ fn response_to(route: Route, gzip: bool, status: &Status) -> (String, Vec<u8>) {
             head_only: false,
             gzip,
             body: None,
+            cancel: false,
         },
         &identity(),
         status,

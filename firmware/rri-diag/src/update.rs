@@ -15,16 +15,20 @@ pub struct Update {
     pub swaps: bool,
     /// What the last upload came to.
     pub last: Outcome,
+    /// Where the running image stands (on trial after a swap).
+    pub image: rri_update::lifecycle::Image,
 }
 
 /// The response status for `outcome`, the answer to a `PUT /firmware`.
 pub fn http_status(outcome: &Outcome) -> http::Status {
     match outcome {
-        Outcome::Marked { .. } => http::Status::Ok,
+        Outcome::Marked { .. } | Outcome::Cancelled => http::Status::Ok,
         Outcome::Refused(r) => match r {
             Refused::BadSignature => http::Status::Forbidden,
             Refused::TooLarge { .. } => http::Status::ContentTooLarge,
-            Refused::Older | Refused::NotConfirmed => http::Status::Conflict,
+            Refused::Older | Refused::NotConfirmed | Refused::NothingMarked | Refused::OnTrial => {
+                http::Status::Conflict
+            }
             Refused::Flash(_) | Refused::Buffer => http::Status::InternalError,
             _ => http::Status::Unprocessable,
         },
@@ -43,6 +47,7 @@ pub fn name(outcome: &Outcome) -> &'static str {
         Outcome::Receiving { .. } => "receiving",
         Outcome::Marked { .. } => "marked",
         Outcome::Refused(_) => "refused",
+        Outcome::Cancelled => "cancelled",
         Outcome::Abandoned { .. } => "abandoned",
     }
 }
@@ -65,7 +70,9 @@ pub fn line(out: &mut dyn Out, u: &Update) {
                 out.str(" (FORCED: older than the running image)");
             }
             if u.swaps {
-                out.str(" checked and marked: it is swapped in at the next reset");
+                out.str(
+                    " checked and marked: the device restarts into it once its controller is not OPERATING",
+                );
             } else {
                 out.str(
                     " checked and marked; this board has no bootloader yet, so nothing swaps it in",
@@ -77,6 +84,9 @@ pub fn line(out: &mut dyn Out, u: &Update) {
             out.str(r.text());
             refusal_figures(out, &r);
             out.str("; nothing was marked");
+        }
+        Outcome::Cancelled => {
+            out.str("cancelled: the marked update is not swapped in; the running image stays")
         }
         Outcome::Abandoned { received, declared } => {
             out.str("abandoned after ");
@@ -159,7 +169,22 @@ mod tests {
                     older: false,
                 },
                 "200 OK",
-                "version 1.2.3 checked and marked: it is swapped in at the next reset",
+                "version 1.2.3 checked and marked: the device restarts into it once its controller is not OPERATING",
+            ),
+            (
+                Outcome::Cancelled,
+                "200 OK",
+                "cancelled: the marked update is not swapped in",
+            ),
+            (
+                Outcome::Refused(Refused::NothingMarked),
+                "409 Conflict",
+                "no update is marked: nothing to cancel",
+            ),
+            (
+                Outcome::Refused(Refused::OnTrial),
+                "409 Conflict",
+                "on trial",
             ),
             (
                 Outcome::Refused(Refused::BadSignature),
@@ -193,7 +218,11 @@ mod tests {
                 "(3 bytes of 5)",
             ),
         ] {
-            let text = said(Update { swaps: true, last });
+            let text = said(Update {
+                swaps: true,
+                last,
+                image: rri_update::lifecycle::Image::Confirmed,
+            });
             assert!(text.starts_with("HTTP/1.1 "), "{text}");
             assert!(text.contains(code), "{last:?}: {text}");
             assert!(text.contains(words), "{last:?}: {text}");
@@ -213,6 +242,7 @@ mod tests {
                 version: Version::parse("0.0.1").unwrap(),
                 older: true,
             },
+            image: rri_update::lifecycle::Image::Confirmed,
         });
         assert!(
             text.contains("200 OK")
@@ -227,6 +257,7 @@ mod tests {
                 version: v,
                 older: false,
             },
+            image: rri_update::lifecycle::Image::Confirmed,
         });
         assert!(
             text.contains("no bootloader yet, so nothing swaps it in"),

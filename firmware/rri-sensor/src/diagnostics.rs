@@ -83,7 +83,7 @@ pub fn identity(mac: Option<[u8; 6]>) -> Identity {
         device: layout::DEVICE_NAME,
         device_type: layout::DEVICE_TYPE,
         device_class: layout::DEVICE_CLASS,
-        version: env!("CARGO_PKG_VERSION"),
+        version: crate::version::VERSION,
         commit: rri_firmware::network::COMMIT,
         board: board::NAME,
         sensor: rri_active_sensor::active_name(),

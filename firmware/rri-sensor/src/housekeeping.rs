@@ -17,6 +17,10 @@ use rri_firmware::snapshot::Snapshot;
 #[embassy_executor::task]
 pub(crate) async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Watchdog) -> ! {
     watchdog.start(WATCHDOG_MS);
+    // After an update: on trial until OPERATING, and the restart into the
+    // swap of a marked image once the controller is not OPERATING.
+    #[cfg(rri_update)]
+    let mut course = super::update::Course::take();
     let mut ticker = Ticker::every(Duration::from_millis(100));
     // From UNDEFINED, so the first state the cycle reaches is logged too.
     let mut last = Snapshot::default();
@@ -37,7 +41,11 @@ pub(crate) async fn housekeeping(mut leds: board::Leds, mut watchdog: board::Wat
         // A TCP cycle waits in accept without turning; it has nothing to
         // hang on there.
         let waiting = TCP && now.state != SensorState::Operating;
-        if now.heartbeat != last.heartbeat || waiting {
+        #[cfg(rri_update)]
+        let keep = course.tick(&now);
+        #[cfg(not(rri_update))]
+        let keep = true;
+        if keep && (now.heartbeat != last.heartbeat || waiting) {
             watchdog.feed();
         }
         leds.set(0, state_led(now.state, tick));

@@ -60,6 +60,7 @@ mod housekeeping;
 #[cfg(rri_update)]
 mod update;
 mod update_key;
+mod version;
 use housekeeping::housekeeping;
 
 /// The device's address: Description.xml's `Network Address`.
@@ -116,7 +117,7 @@ fn main() -> ! {
     };
     defmt::info!(
         "rri-sensor {} on {}: {} at {}.{}.{}.{}/{} port {} over {}",
-        env!("CARGO_PKG_VERSION"),
+        version::VERSION,
         board::NAME,
         layout::DEVICE_NAME,
         ADDRESS[0],

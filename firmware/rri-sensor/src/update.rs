@@ -13,17 +13,24 @@
 
 use crate::board;
 use crate::update_key::{key, KEY};
+use core::cell::Cell;
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::blocking_mutex::Mutex as Blocking;
+use embedded_storage::nor_flash::NorFlash;
 use hal_board::ram_flash::RamFlash;
-use rri_update::{Device, FirmwareUpdaterConfig, Running, Version};
+use rri_firmware::engine::SensorState;
+use rri_firmware::snapshot::Snapshot;
+use rri_update::lifecycle::{Image, Lifecycle, Seen, Step, TRIAL_MS};
+use rri_update::{Device, FirmwareUpdaterConfig, Outcome, Running, State, Version};
 use static_cell::StaticCell;
 
 /// This image, as update files are checked against it.
 const RUNNING: Running<'static> = Running {
     board: board::update::BOARD,
     origin: board::update::ORIGIN,
-    version: match Version::parse(env!("CARGO_PKG_VERSION")) {
+    version: match Version::parse(crate::version::VERSION) {
         Some(v) => v,
-        None => panic!("rri-sensor's version is major.minor.patch"),
+        None => panic!("the image's version is major.minor.patch (build.rs checks it)"),
     },
 };
 
@@ -36,9 +43,111 @@ fn partitions() -> FirmwareUpdaterConfig<RamFlash, RamFlash> {
     FirmwareUpdaterConfig { dfu, state }
 }
 
-/// Installs the receiver in the service's desk (once, before the
-/// services run); without a key the service stays read-only.
+/// The state partition's write unit, for embassy-boot's view of it.
+type Word = [u8; <RamFlash as NorFlash>::WRITE_SIZE];
+
+/// The running image's course after an update (`rri_update::lifecycle`):
+/// read from the state partition at start-up, ticked by housekeeping.
+pub struct Course {
+    life: Lifecycle,
+}
+
+/// What [`install`] read, for housekeeping to take.
+static READ: Blocking<CriticalSectionRawMutex, Cell<Option<Lifecycle>>> =
+    Blocking::new(Cell::new(None));
+
+/// Where this image stands (on trial when the bootloader just swapped it
+/// in), said in the log and on the status, and the receiver installed in
+/// the service's desk (once, before the services run; without a key the
+/// service stays read-only). The course exists with or without a key: an
+/// image swapped in must confirm itself either way ([`Course::take`]).
 pub fn install() {
+    let mut word: Word = [0; <RamFlash as NorFlash>::WRITE_SIZE];
+    let on_trial = match rri_update::state(partitions().state, &mut word) {
+        Ok(state) => state == State::Swap,
+        Err(e) => {
+            defmt::warn!(
+                "update: the state partition cannot be read ({=str}): taken as confirmed",
+                e.text()
+            );
+            false
+        }
+    };
+    let life = Lifecycle::new(on_trial, board::update::SWAPS);
+    rri_diag::tasks::DESK.set_image(life.image());
+    if on_trial {
+        defmt::warn!(
+            "update: version {=str} was just swapped in and is on trial: it confirms itself at OPERATING (or after {=u64} s without a controller); a reset before that brings the previous image back",
+            crate::version::VERSION,
+            rri_update::lifecycle::SELF_TEST_MS / 1000
+        );
+    }
+    install_receiver();
+    READ.lock(|c| c.set(Some(life)));
+}
+
+impl Course {
+    /// The course [`install`] read (confirmed if it did not run).
+    pub fn take() -> Course {
+        let life = READ
+            .lock(|c| c.take())
+            .unwrap_or(Lifecycle::new(false, board::update::SWAPS));
+        Course { life }
+    }
+
+    /// One tick of housekeeping with the cycle's latest snapshot; `false`:
+    /// stop feeding the watchdog (an image on trial that gave up).
+    pub fn tick(&mut self, now: &Snapshot) -> bool {
+        let st = &now.stats;
+        let marked = matches!(rri_diag::tasks::DESK.last(), Outcome::Marked { .. });
+        let seen = Seen {
+            now_ms: embassy_time::Instant::now().as_millis(),
+            operating: now.state == SensorState::Operating,
+            heard: st.received > 0
+                || st.dropped_decode > 0
+                || st.fragments.controller_datagrams > 0,
+            marked,
+        };
+        match self.life.tick(seen) {
+            Step::Wait => {}
+            Step::Confirm(why) => {
+                let mut word: Word = [0; <RamFlash as NorFlash>::WRITE_SIZE];
+                match rri_update::confirm(partitions().state, &mut word) {
+                    Ok(()) => defmt::info!(
+                        "update: version {=str} confirmed: {=str}",
+                        crate::version::VERSION,
+                        why.text()
+                    ),
+                    Err(e) => {
+                        defmt::warn!(
+                            "update: the confirmation could not be written ({=str}); tried again",
+                            e.text()
+                        );
+                        self.life.confirm_failed();
+                    }
+                }
+            }
+            Step::GiveUp => defmt::error!(
+                "update: on trial, the controller was heard for {=u64} s and this image never reached OPERATING: the watchdog resets it and the bootloader brings the previous image back",
+                TRIAL_MS / 1000
+            ),
+            Step::Restart => {
+                defmt::info!(
+                    "update: restarting into the bootloader's swap of the marked image (the controller is not OPERATING)"
+                );
+                board::restart()
+            }
+        }
+        let image = self.life.image();
+        rri_diag::tasks::DESK.set_image(image);
+        // Given up: never fed again, until the watchdog's reset.
+        image != Image::GaveUp
+    }
+}
+
+/// Installs the receiver in the service's desk; without a key the
+/// service stays read-only.
+fn install_receiver() {
     let Some(key) = KEY else {
         defmt::info!("updates: none (RRI_UPDATE_KEY=off): the diagnostics stay read-only");
         return;

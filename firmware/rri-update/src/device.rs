@@ -21,6 +21,9 @@ pub trait Receive {
     fn finish(&mut self, force: bool) -> Result<Trailer, Refused>;
     /// The client went away: the upload is dropped, nothing is marked.
     fn abandon(&mut self);
+    /// Cancels a marked update before its swap (`on_trial`: the running
+    /// image has not confirmed itself since its own swap: refused).
+    fn cancel(&mut self, on_trial: bool) -> Result<(), Refused>;
     /// Whether a bootloader swaps what is marked at the next reset (a
     /// board without one says so instead of claiming a swap).
     fn swaps(&self) -> bool;
@@ -51,6 +54,8 @@ pub enum Outcome {
     },
     /// Refused; nothing was marked.
     Refused(Refused),
+    /// A marked update was cancelled before its swap.
+    Cancelled,
     /// The client went away before the whole file came; nothing was
     /// marked.
     Abandoned {
@@ -117,6 +122,13 @@ impl<DFU: NorFlash, STATE: NorFlash> Receive for Device<DFU, STATE> {
 
     fn abandon(&mut self) {
         self.upload = None;
+    }
+
+    fn cancel(&mut self, on_trial: bool) -> Result<(), Refused> {
+        self.upload = None;
+        let mut word = crate::upload::Word([0; crate::WORD_MAX]);
+        let w = word.0.get_mut(..STATE::WRITE_SIZE).unwrap_or(&mut []);
+        crate::upload::cancel((self.partitions)().state, w, on_trial)
     }
 
     fn swaps(&self) -> bool {

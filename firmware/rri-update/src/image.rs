@@ -39,7 +39,7 @@ impl Version {
     /// `"1.2.3"` (a pre-release or build suffix after `-` or `+` is not
     /// part of the order and is left out); `None` when it is not three
     /// numbers each under 65,536. `const`, so a firmware reads its own
-    /// from `CARGO_PKG_VERSION` at build time.
+    /// at build time (rri-sensor's `RRI_IMAGE_VERSION`).
     pub const fn parse(text: &str) -> Option<Version> {
         let mut rest = text.as_bytes();
         // The three numbers so far, the one being read, its digits.

@@ -90,6 +90,43 @@ pub enum Standing {
     GaveUp,
 }
 
+/// Where the running image stands, as the status says it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Image {
+    /// Confirmed: a reset boots it again.
+    Confirmed,
+    /// On trial: a reset brings the previous image back.
+    OnTrial,
+    /// Gave up on trial: the watchdog resets it, the previous image comes
+    /// back.
+    GaveUp,
+}
+
+impl Image {
+    /// As `/status.json` and the page say it.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Image::Confirmed => "confirmed",
+            Image::OnTrial => "on trial",
+            Image::GaveUp => "gave up",
+        }
+    }
+
+    /// For an atomic cell.
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// From [`Image::code`]; anything else reads as confirmed.
+    pub const fn from_code(code: u8) -> Image {
+        match code {
+            1 => Image::OnTrial,
+            2 => Image::GaveUp,
+            _ => Image::Confirmed,
+        }
+    }
+}
+
 /// The running image's course.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Lifecycle {
@@ -115,6 +152,15 @@ impl Lifecycle {
     /// Where the image stands.
     pub const fn standing(&self) -> Standing {
         self.standing
+    }
+
+    /// Where the image stands, as the status says it.
+    pub const fn image(&self) -> Image {
+        match self.standing {
+            Standing::Confirmed => Image::Confirmed,
+            Standing::OnTrial { .. } => Image::OnTrial,
+            Standing::GaveUp => Image::GaveUp,
+        }
     }
 
     /// One tick.
@@ -263,6 +309,15 @@ mod tests {
             ..seen(10)
         };
         assert_eq!(l.tick(marked), Step::Wait);
+    }
+
+    #[test]
+    fn the_image_standing_round_trips_through_its_code() {
+        for i in [Image::Confirmed, Image::OnTrial, Image::GaveUp] {
+            assert_eq!(Image::from_code(i.code()), i);
+        }
+        assert_eq!(Lifecycle::new(true, true).image(), Image::OnTrial);
+        assert_eq!(Lifecycle::new(false, true).image(), Image::Confirmed);
     }
 
     #[test]

@@ -65,6 +65,11 @@ pub enum Refused {
     /// running image has not confirmed itself since its swap (a second
     /// update now would lose the image to roll back to).
     NotConfirmed,
+    /// A cancellation with no update marked.
+    NothingMarked,
+    /// A cancellation while the running image is on trial: the state
+    /// partition's swap is its own, which only its confirmation ends.
+    OnTrial,
     /// The buffer given for the state partition is not its write size.
     Buffer,
     /// Bytes or a finish without an upload begun (or after it ended).
@@ -96,6 +101,10 @@ impl Refused {
             Refused::NotConfirmed => {
                 "an update is marked already, or the running image has not confirmed itself since its update"
             }
+            Refused::NothingMarked => "no update is marked: nothing to cancel",
+            Refused::OnTrial => {
+                "the running image is on trial since its update: it confirms itself or is rolled back, nothing to cancel"
+            }
             Refused::Buffer => "the state partition's buffer is not its write size",
             Refused::NoUpload => "no upload in progress",
             Refused::Flash(_) => "the flash refused an operation",
@@ -120,7 +129,7 @@ struct Stage([u8; STAGE]);
 /// The state partition's write buffer, on the same alignment (sliced to
 /// its write size; every board's is at most [`WORD_MAX`]).
 #[repr(C, align(32))]
-struct Word([u8; WORD_MAX]);
+pub(crate) struct Word(pub(crate) [u8; WORD_MAX]);
 
 /// The largest state-partition write size an upload takes (the H743's
 /// flash word is 32 bytes).
@@ -362,6 +371,34 @@ pub fn state<STATE: NorFlash>(state: STATE, aligned: &mut [u8]) -> Result<State,
     }
     BlockingFirmwareState::new(state, aligned)
         .get_state()
+        .map_err(Refused::from)
+}
+
+/// Cancels a marked update before its swap: the state partition says
+/// *boot* again, and the update partition's bytes are left for the next
+/// upload to replace. `on_trial`: the running image was swapped in and
+/// has not confirmed itself, when the state's *swap* is its own and is
+/// not cancelled ([`Refused::OnTrial`]).
+pub fn cancel<STATE: NorFlash>(
+    mut state: STATE,
+    aligned: &mut [u8],
+    on_trial: bool,
+) -> Result<(), Refused> {
+    if aligned.len() != STATE::WRITE_SIZE {
+        return Err(Refused::Buffer);
+    }
+    if on_trial {
+        return Err(Refused::OnTrial);
+    }
+    let marked = BlockingFirmwareState::new(&mut state, &mut *aligned)
+        .get_state()
+        .map_err(Refused::from)?
+        == State::Swap;
+    if !marked {
+        return Err(Refused::NothingMarked);
+    }
+    BlockingFirmwareState::new(state, aligned)
+        .mark_booted()
         .map_err(Refused::from)
 }
 

@@ -111,10 +111,13 @@ fn read_until_close(
     }
 }
 
-/// What a `PUT` sends: `body` under the path (with its query), declared
-/// as `declared` bytes long (a test may send fewer: the connection is
-/// then half-closed after them, as a client cut off).
+/// What a `PUT` (or a `DELETE`, with no body) sends: `body` under the
+/// path (with its query), declared as `declared` bytes long (a test may
+/// send fewer: the connection is then half-closed after them, as a client
+/// cut off).
 pub struct Put<'a> {
+    /// `PUT` or `DELETE`.
+    pub method: &'a str,
     pub path: &'a str,
     pub body: &'a [u8],
     pub declared: usize,
@@ -137,8 +140,8 @@ pub fn put(
     let (mut s, host, port, _) = connect(url, timeout)?;
     let end = Instant::now() + timeout;
     let head = format!(
-        "PUT {} HTTP/1.1\r\nHost: {host}:{port}\r\nContent-Type: application/octet-stream\r\nContent-Length: {}\r\nConnection: close\r\nUser-Agent: rri-update-device\r\n\r\n",
-        put.path, put.declared
+        "{} {} HTTP/1.1\r\nHost: {host}:{port}\r\nContent-Type: application/octet-stream\r\nContent-Length: {}\r\nConnection: close\r\nUser-Agent: rri-update-device\r\n\r\n",
+        put.method, put.path, put.declared
     );
     let mut write_error = s.write_all(head.as_bytes()).err();
     let mut sent = 0;

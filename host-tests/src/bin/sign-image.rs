@@ -57,7 +57,9 @@ enum Command {
         /// The firmware ELF a board build wrote.
         #[arg(long)]
         elf: PathBuf,
-        /// The version the file says it is (default: rri-sensor's, from its Cargo.toml).
+        /// The version the file says it is: the one the image reports (its
+        /// `RRI_IMAGE_VERSION`), which this must equal if given; for an ELF
+        /// that reports none, default rri-sensor's, from its Cargo.toml.
         #[arg(long)]
         version: Option<String>,
         /// The secret key (default: the key directory's update-key).
@@ -111,9 +113,20 @@ fn run(args: Args) -> Result<(), String> {
             key,
             out,
         } => {
-            let version = match version {
-                Some(v) => v,
-                None => update_file::sensor_version()?,
+            let elf_bytes = std::fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+            // The file carries the version its image reports: a device
+            // compares it with the running one, and after the swap the
+            // image says its own.
+            let version = match (version, update_file::image_version(&elf_bytes)?) {
+                (Some(asked), Some(own)) if asked != own => {
+                    return Err(format!(
+                        "{}: the image reports version {own}, not {asked}: build it with RRI_IMAGE_VERSION={asked} (or leave --version out)",
+                        elf.display()
+                    ))
+                }
+                (_, Some(own)) => own,
+                (Some(asked), None) => asked,
+                (None, None) => update_file::sensor_version()?,
             };
             let parsed = Version::parse(&version)
                 .ok_or_else(|| format!("{version:?} is not a version (major.minor.patch)"))?;
@@ -121,7 +134,6 @@ fn run(args: Args) -> Result<(), String> {
                 Some(k) => read_key(&k)?,
                 None => read_key(&key_dir()?.join(SECRET))?,
             };
-            let elf_bytes = std::fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
             let (origin, image) = update_file::flat_image(&elf_bytes)?;
             let file = update_file::signed_file(&image, origin, board.name(), parsed, &seed)?;
             std::fs::write(&out, &file).map_err(|e| format!("{}: {e}", out.display()))?;

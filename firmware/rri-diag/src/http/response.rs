@@ -25,7 +25,7 @@ pub enum Status {
     /// 503: every connection slot is busy (sent by a slot that has to
     /// turn a connection away).
     Unavailable,
-    /// 405 for `/firmware`, which takes `PUT` alone.
+    /// 405 for `/firmware`, which takes `PUT` and `DELETE` alone.
     PutOnly,
     /// 403: an update file whose signature does not verify.
     Forbidden,
@@ -106,7 +106,7 @@ pub fn head(out: &mut dyn crate::Out, status: Status, content_type: &str, len: u
     out.str("\r\nCache-Control: no-store\r\nConnection: close\r\nX-Content-Type-Options: nosniff\r\nContent-Security-Policy: default-src 'none'; style-src 'unsafe-inline'; script-src 'unsafe-inline'; connect-src 'self'\r\n");
     match status {
         Status::MethodNotAllowed => out.str("Allow: GET, HEAD\r\n"),
-        Status::PutOnly => out.str("Allow: PUT\r\n"),
+        Status::PutOnly => out.str("Allow: PUT, DELETE\r\n"),
         _ => {}
     }
     if gzip {

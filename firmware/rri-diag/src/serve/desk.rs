@@ -5,9 +5,10 @@
 use super::Cs;
 use crate::update::Update;
 use core::cell::Cell;
-use core::sync::atomic::{AtomicBool, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use embassy_sync::blocking_mutex::Mutex as Blocking;
 use embassy_sync::mutex::Mutex;
+use rri_update::lifecycle::Image;
 use rri_update::{Outcome, Receive};
 
 /// Where uploads go. Without a receiver installed (a firmware built
@@ -18,6 +19,7 @@ pub struct Desk {
     installed: AtomicBool,
     swaps: AtomicBool,
     last: Blocking<Cs, Cell<Outcome>>,
+    image: AtomicU8,
 }
 
 impl Default for Desk {
@@ -34,6 +36,7 @@ impl Desk {
             installed: AtomicBool::new(false),
             swaps: AtomicBool::new(false),
             last: Blocking::new(Cell::new(Outcome::None)),
+            image: AtomicU8::new(Image::Confirmed.code()),
         }
     }
 
@@ -71,11 +74,28 @@ impl Desk {
         self.last.lock(|c| c.set(outcome));
     }
 
+    /// Where the running image stands (the board's housekeeping says it:
+    /// on trial after a swap until it confirms itself).
+    pub fn set_image(&self, image: Image) {
+        self.image.store(image.code(), Ordering::Relaxed);
+    }
+
+    /// Where the running image stands.
+    pub fn image(&self) -> Image {
+        Image::from_code(self.image.load(Ordering::Relaxed))
+    }
+
+    /// The last upload's outcome.
+    pub fn last(&self) -> Outcome {
+        self.last.lock(|c| c.get())
+    }
+
     /// The status's `update` section (`None` without updates).
     pub fn update(&self) -> Option<Update> {
         self.takes_updates().then(|| Update {
             swaps: self.swaps.load(Ordering::Relaxed),
-            last: self.last.lock(|c| c.get()),
+            last: self.last(),
+            image: self.image(),
         })
     }
 }

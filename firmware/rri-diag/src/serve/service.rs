@@ -4,7 +4,7 @@
 //! slot, the socket half and the bounds).
 
 #[cfg(rri_update)]
-use super::upload::receive;
+use super::upload::{cancel, receive};
 use super::{Cs, Desk, Renderer, ServiceHalf, Slot, PIECE, REQUEST_TIMEOUT, STALL_TIMEOUT};
 use crate::http::{self, Parsed, Parser};
 use crate::{Identity, Status, Window};
@@ -67,6 +67,14 @@ pub async fn service(
                 to.copy_from_slice(from);
             }
             if !receive(slot, desk, body, first.get(..len).unwrap_or(&[]), buf).await {
+                reply = Some(Reply::Busy);
+            }
+        }
+        #[cfg(rri_update)]
+        if let (Some(desk), Some((Parsed::Request(http::Request { cancel: true, .. }), _))) =
+            (desk, verdict)
+        {
+            if !cancel(desk) {
                 reply = Some(Reply::Busy);
             }
         }

@@ -89,6 +89,27 @@ pub(super) async fn receive(
     true
 }
 
+/// A `DELETE /firmware`: the marked update cancelled before its swap
+/// (refused while the running image is on trial, or with nothing marked),
+/// and the outcome recorded; `false` when an upload holds the receiver.
+pub(super) fn cancel(desk: &Desk) -> bool {
+    let Some(mut guard) = desk.try_take() else {
+        return false;
+    };
+    let Some(receiver) = guard.as_mut() else {
+        return false;
+    };
+    let on_trial = desk.image() != rri_update::lifecycle::Image::Confirmed;
+    let outcome = match receiver.cancel(on_trial) {
+        Ok(()) => Outcome::Cancelled,
+        Err(e) => Outcome::Refused(e),
+    };
+    desk.set(outcome);
+    #[cfg(feature = "board")]
+    log(&outcome);
+    true
+}
+
 /// The outcome in the device's log.
 #[cfg(feature = "board")]
 fn log(outcome: &Outcome) {
@@ -112,6 +133,9 @@ fn log(outcome: &Outcome) {
             version.patch
         ),
         Outcome::Refused(r) => defmt::warn!("update refused: {=str}", r.text()),
+        Outcome::Cancelled => {
+            defmt::info!("update: the marked update was cancelled; this image stays")
+        }
         Outcome::Abandoned { received, declared } => defmt::warn!(
             "update abandoned after {} of {} bytes: nothing marked",
             received,
