@@ -199,22 +199,17 @@ fn update_device_command(
     file: &Path,
     wait: u64,
 ) -> Result<(i32, String), String> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let built = Command::new(&cargo)
-        .current_dir(crate::workspace())
-        .args([
+    crate::cargo(
+        &[
             "build",
             "--release",
             "-p",
             "host-tests",
             "--bin",
             "update-device",
-        ])
-        .status()
-        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
-    if !built.success() {
-        return Err(format!("building update-device failed ({built})"));
-    }
+        ],
+        "building update-device",
+    )?;
     let exe = std::env::current_exe().map_err(|e| e.to_string())?;
     let tool = exe.with_file_name("update-device");
     let out = Command::new(&tool)
@@ -328,7 +323,15 @@ pub fn course(
     // 5. C: another layout, never OPERATING, rolled back by the watchdog.
     let (code, text) = update_device_command(http, &images.c_file, 60)?;
     step(
-        if code == 0 && text.contains(&format!("device: running {}", images.c_version)) {
+        // Its answer came before the restart (the device waits
+        // `ANSWER_MS` after the mark), then the new version.
+        if code == 0
+            && text.contains(&format!(
+                "device: 200 version {} checked and marked",
+                images.c_version
+            ))
+            && text.contains(&format!("device: running {}", images.c_version))
+        {
             Ok(format!(
                 "C sent with cargo update-device: swapped in, running {} on trial",
                 images.c_version

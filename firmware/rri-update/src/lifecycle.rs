@@ -14,7 +14,8 @@
 //!   A hang or a crash on trial ends the same way.
 //! - **Confirmed**, with an update marked (and a bootloader that swaps),
 //!   the image restarts into the bootloader's swap as soon as its
-//!   controller is not OPERATING: never mid-motion.
+//!   controller is not OPERATING (never mid-motion), and not before the
+//!   mark is [`ANSWER_MS`] old (the upload's answer has gone out).
 //!
 //! Plain logic over milliseconds, tested on the host; the board supplies
 //! the clock, the snapshot, the flash and the reset.
@@ -24,6 +25,10 @@ pub const SELF_TEST_MS: u64 = 60_000;
 /// A controller heard but no OPERATING for this long after first hearing
 /// it, on trial: the image gives up (the watchdog rolls it back).
 pub const TRIAL_MS: u64 = 30_000;
+/// An update marked this long before the restart into its swap: the
+/// upload's answer has gone out to its client by then (the answer is
+/// rendered right after the mark, on the same executor, in milliseconds).
+pub const ANSWER_MS: u64 = 1_000;
 
 /// What the board's housekeeping saw this tick.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -133,6 +138,8 @@ pub struct Lifecycle {
     standing: Standing,
     /// A bootloader swaps what is marked (else a marked update waits).
     swaps: bool,
+    /// When an update was first seen marked.
+    marked_at: Option<u64>,
 }
 
 impl Lifecycle {
@@ -146,6 +153,7 @@ impl Lifecycle {
                 Standing::Confirmed
             },
             swaps,
+            marked_at: None,
         }
     }
 
@@ -168,7 +176,15 @@ impl Lifecycle {
         match self.standing {
             Standing::GaveUp => Step::Wait,
             Standing::Confirmed => {
-                if self.swaps && seen.marked && !seen.operating {
+                self.marked_at = match (seen.marked, self.marked_at) {
+                    (false, _) => None,
+                    (true, None) => Some(seen.now_ms),
+                    (true, at) => at,
+                };
+                let answered = self
+                    .marked_at
+                    .is_some_and(|at| seen.now_ms.saturating_sub(at) >= ANSWER_MS);
+                if self.swaps && answered && !seen.operating {
                     Step::Restart
                 } else {
                     Step::Wait
@@ -280,14 +296,24 @@ mod tests {
             ..seen(10)
         };
         assert_eq!(l.tick(marked), Step::Wait);
-        assert_eq!(
-            l.tick(Seen {
-                operating: false,
-                ..marked
-            }),
-            Step::Restart
-        );
-        assert_eq!(l.tick(seen(20)), Step::Wait, "nothing marked");
+        let stopped = Seen {
+            operating: false,
+            ..marked
+        };
+        // Not before the upload's answer has had ANSWER_MS to go out.
+        assert_eq!(l.tick(stopped), Step::Wait);
+        let later = Seen {
+            now_ms: 10 + ANSWER_MS,
+            ..stopped
+        };
+        assert_eq!(l.tick(later), Step::Restart);
+        assert_eq!(l.tick(seen(20 + ANSWER_MS)), Step::Wait, "nothing marked");
+        // Marked again (after a cancel): the wait starts again.
+        let again = Seen {
+            now_ms: 30 + ANSWER_MS,
+            ..stopped
+        };
+        assert_eq!(l.tick(again), Step::Wait);
     }
 
     #[test]
@@ -298,6 +324,13 @@ mod tests {
             ..seen(10)
         };
         assert_eq!(l.tick(marked), Step::Wait);
+        assert_eq!(
+            l.tick(Seen {
+                now_ms: 10 + ANSWER_MS,
+                ..marked
+            }),
+            Step::Wait
+        );
     }
 
     #[test]
