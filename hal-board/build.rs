@@ -59,6 +59,16 @@ fn main() {
         std::env::var_os(var).is_some()
     });
     let boot = std::env::var_os("CARGO_FEATURE_BOOT").is_some();
+    // cfg `app_board`: the application's side of a board (its executor,
+    // handlers, stack and sections), not its bootloader's (`boot`) and not
+    // the host build.
+    println!("cargo::rustc-check-cfg=cfg(app_board)");
+    let any_board = ["MPS2_AN500", "STM32"]
+        .iter()
+        .any(|f| std::env::var_os(format!("CARGO_FEATURE_{f}")).is_some());
+    if bare_metal && any_board && !boot {
+        println!("cargo:rustc-cfg=app_board");
+    }
     let script = match board {
         Some(board) if bare_metal => {
             let map = match (boot, board.boot) {

@@ -101,33 +101,21 @@ pub struct LinkInfo {
 }
 
 /// Stack painting and its high-water mark (every board).
-#[cfg(all(
-    any(feature = "mps2-an500", feature = "stm32"),
-    not(feature = "boot"),
-    target_os = "none"
-))]
+#[cfg(app_board)]
 pub mod stack;
 
 /// `.diag_ram`, zeroed at start-up (every board).
-#[cfg(all(
-    any(feature = "mps2-an500", feature = "stm32"),
-    not(feature = "boot"),
-    target_os = "none"
-))]
+#[cfg(app_board)]
 pub mod sections;
 
 /// The HardFault handler (every board).
-#[cfg(all(
-    any(feature = "mps2-an500", feature = "stm32"),
-    not(feature = "boot"),
-    target_os = "none"
-))]
+#[cfg(app_board)]
 pub mod fault;
 
 #[cfg(all(feature = "mps2-an500", target_os = "none"))]
 pub mod mps2_flash;
 
-#[cfg(all(feature = "mps2-an500", not(feature = "boot"), target_os = "none"))]
+#[cfg(all(app_board, feature = "mps2-an500"))]
 pub mod mps2_an500;
 
 #[cfg(all(feature = "mps2-an500", feature = "boot", target_os = "none"))]
@@ -152,7 +140,7 @@ compile_error!("choose one board feature: mps2-an500, nucleo-f767zi or nucleo-h7
 compile_error!("`stm32` is not a board: choose nucleo-f767zi or nucleo-h743zi");
 
 /// The board this firmware is built for.
-#[cfg(all(feature = "mps2-an500", not(feature = "boot"), target_os = "none"))]
+#[cfg(all(app_board, feature = "mps2-an500"))]
 pub use mps2_an500 as board;
 /// The board this bootloader is built for.
 #[cfg(all(feature = "mps2-an500", feature = "boot", target_os = "none"))]

@@ -268,11 +268,7 @@ pub fn claim() -> bool {
 }
 
 /// The record in RAM, at the board's `__crash_record`.
-#[cfg(all(
-    any(feature = "mps2-an500", feature = "stm32"),
-    not(feature = "boot"),
-    target_os = "none"
-))]
+#[cfg(app_board)]
 pub(crate) mod ram {
     #![allow(unsafe_code)]
     use super::{CrashRecord, Flags, Report};

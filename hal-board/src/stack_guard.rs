@@ -66,24 +66,12 @@ pub const fn is_overflow(sp: u32, end: u32, cfsr: u32, mmfar: u32) -> bool {
     cfsr & MSTKERR != 0 || in_guard || sp < end
 }
 
-#[cfg(all(
-    any(feature = "mps2-an500", feature = "stm32"),
-    not(feature = "boot"),
-    target_os = "none"
-))]
+#[cfg(app_board)]
 pub(crate) use on_target::end;
-#[cfg(all(
-    any(feature = "mps2-an500", feature = "stm32"),
-    not(feature = "boot"),
-    target_os = "none"
-))]
+#[cfg(app_board)]
 pub use on_target::{arm, overflow_selftest};
 
-#[cfg(all(
-    any(feature = "mps2-an500", feature = "stm32"),
-    not(feature = "boot"),
-    target_os = "none"
-))]
+#[cfg(app_board)]
 mod on_target {
     #![allow(unsafe_code)]
     use super::{is_overflow, layout, NEAR, REGION, SIZE};
