@@ -57,6 +57,23 @@ pub fn workspace() -> PathBuf {
     manifest.parent().map(PathBuf::from).unwrap_or(manifest)
 }
 
+/// Runs `cargo ARGS` in the workspace (the cargo that runs this tool,
+/// else the one on the PATH), its output shown; `what` names the build in
+/// the error.
+pub fn cargo(args: &[&str], what: &str) -> Result<(), String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let status = std::process::Command::new(&cargo)
+        .current_dir(workspace())
+        .args(args)
+        .status()
+        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{what} failed ({status})"))
+    }
+}
+
 /// `../shared/rri` beside the checkout: the protocol material (manual,
 /// examples, real-world captures) the tests are checked against.
 pub fn shared_rri() -> PathBuf {

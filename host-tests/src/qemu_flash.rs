@@ -10,7 +10,6 @@
 
 use crate::qemu::{target_dir, PROFILE, TARGET};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::Mutex;
 
 /// The board's partitions, as its memory map states them.
@@ -108,10 +107,8 @@ pub fn bootloader() -> Result<PathBuf, String> {
         return Ok(elf.clone());
     }
     crate::mcu_target::ensure()?;
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(&cargo)
-        .current_dir(crate::workspace())
-        .args([
+    crate::cargo(
+        &[
             "build",
             "-p",
             "rri-boot",
@@ -119,18 +116,13 @@ pub fn bootloader() -> Result<PathBuf, String> {
             "rri-boot",
             "--profile",
             PROFILE,
-        ])
-        .args([
             "--target",
             TARGET,
             "--features",
             crate::qemu::BOARD_FEATURES,
-        ])
-        .status()
-        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
-    if !status.success() {
-        return Err(format!("the bootloader's build failed ({status})"));
-    }
+        ],
+        "the bootloader's build",
+    )?;
     let from = target_dir().join(TARGET).join(PROFILE).join("rri-boot");
     let dir = target_dir().join("qemu");
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;

@@ -179,23 +179,17 @@ pub fn ensure_build_tools(out: &mut dyn Write) -> Result<(), String> {
 
 /// Builds the engine (release) and returns its path.
 pub fn build_engine() -> Result<PathBuf, String> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let ws = crate::workspace();
-    let status = Command::new(&cargo)
-        .current_dir(&ws)
-        .args([
+    crate::cargo(
+        &[
             "build",
             "--release",
             "-p",
             "rri-rehost",
             "--bin",
             "rri-rehost",
-        ])
-        .status()
-        .map_err(|e| format!("cannot run {cargo}: {e}"))?;
-    if !status.success() {
-        return Err(format!("building the rehosting engine failed ({status})"));
-    }
+        ],
+        "building the rehosting engine",
+    )?;
     Ok(crate::qemu::target_dir().join("release").join("rri-rehost"))
 }
 
