@@ -381,6 +381,11 @@ pub fn run_all(setup: &Setup) -> Result<(), String> {
         images.c_version,
         images.c_file.display()
     );
+    println!("== the QEMU board's flash (hal-board/memory/mps2-an500-flash.x):");
+    let boot = crate::qemu_flash::bootloader()?;
+    for line in crate::qemu_flash::table(&boot, &images.a)? {
+        println!("   {line}");
+    }
     let (board, to, http) = qemu::boot_local(images.a.clone(), &setup.device)?;
     let http = http.ok_or("the QEMU board's diagnostics are not forwarded")?;
     let board: Qemu = board;
