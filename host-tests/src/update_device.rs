@@ -97,6 +97,8 @@ pub struct Status {
     pub image: Option<String>,
     /// Why it last started (`software`: the restart into a swap).
     pub last_reset: Option<String>,
+    /// The version its image replaced, when an update swapped it in.
+    pub previous: Option<String>,
 }
 
 /// `/status.json`, read once.
@@ -110,6 +112,7 @@ fn status_once(url: &str, timeout: Duration) -> Result<Status, String> {
         last: text(&json["update"]["last"]),
         image: text(&json["update"]["image"]),
         last_reset: text(&json["device"]["reset"]["cause"]),
+        previous: text(&json["update"]["previous"]),
     })
 }
 

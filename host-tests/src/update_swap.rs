@@ -298,10 +298,13 @@ pub fn course(
         s.version == images.b_version
     })?;
     step(
-        if s.image.as_deref() == Some("on trial") && s.last_reset.as_deref() == Some("software") {
+        if s.image.as_deref() == Some("on trial")
+            && s.last_reset.as_deref() == Some("software")
+            && s.previous.as_deref() == Some(images.a_version.as_str())
+        {
             Ok(format!(
-                "the robot stopped: the device restarted (last reset: software) into B, version {}, on trial",
-                s.version
+                "the robot stopped: the device restarted (last reset: software) into B, version {}, on trial, replacing {}",
+                s.version, images.a_version
             ))
         } else {
             Err(format!("after the swap to B: {s:?}"))
@@ -330,11 +333,14 @@ pub fn course(
                 "device: 200 version {} checked and marked",
                 images.c_version
             ))
-            && text.contains(&format!("device: running {}", images.c_version))
+            && text.contains(&format!(
+                "device: running {}, replacing {}",
+                images.c_version, images.b_version
+            ))
         {
             Ok(format!(
-                "C sent with cargo update-device: swapped in, running {} on trial",
-                images.c_version
+                "C sent with cargo update-device: swapped in, running {} on trial, replacing {}",
+                images.c_version, images.b_version
             ))
         } else {
             Err(format!(

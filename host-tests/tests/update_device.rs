@@ -84,6 +84,9 @@ fn the_receiver_takes_one_upload_at_a_time_and_marks_only_a_checked_file() {
     // refused until it is dealt with (a reset swaps it in).
     let FirmwareUpdaterConfig { mut state, .. } = partitions();
     assert_eq!(rri_update::state(&mut state, &mut [0; 4]), Ok(State::Swap));
+    // The running version noted past embassy-boot's words, for the new
+    // image to say what it replaced.
+    assert_eq!(d.previous(), Some(RUNNING.version));
     assert_eq!(
         d.begin(f.len()),
         Err(Refused::NotConfirmed),
@@ -99,6 +102,19 @@ fn the_receiver_takes_one_upload_at_a_time_and_marks_only_a_checked_file() {
     // taken again.
     assert_eq!(d.cancel(false), Ok(()));
     assert_eq!(rri_update::state(&mut state, &mut [0; 4]), Ok(State::Boot));
+    assert_eq!(
+        d.previous(),
+        None,
+        "the cancellation's erase takes the note"
+    );
+    // No room past embassy-boot's words: no note, and nothing written.
+    let FirmwareUpdaterConfig { state: full, .. } = partitions();
+    assert_eq!(
+        rri_update::note_previous(full, RUNNING.version, SECTOR - 4),
+        Err(Refused::Buffer)
+    );
+    let FirmwareUpdaterConfig { state: s2, .. } = partitions();
+    assert_eq!(rri_update::previous(s2, 0), None);
     assert_eq!(d.cancel(false), Err(Refused::NothingMarked));
     d.begin(f.len()).unwrap();
     for piece in f.chunks(4096) {

@@ -181,6 +181,10 @@ pub fn write(out: &mut dyn Out, id: &Identity, s: &Status) {
             o.flag("swaps", u.swaps);
             o.text("outcome", crate::update::name(&u.last));
             o.text("image", u.image.name());
+            match u.previous {
+                Some(v) => o.quoted("previous", &mut |w| crate::update::version(w, v)),
+                None => o.null("previous"),
+            }
             o.quoted("last", &mut |w| crate::update::line(w, u));
         }),
         _ => m.null("update"),

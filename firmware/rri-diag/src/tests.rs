@@ -137,6 +137,7 @@ fn status() -> Status {
             swaps: true,
             last: rri_update::Outcome::Refused(rri_update::Refused::OtherBoard),
             image: rri_update::lifecycle::Image::OnTrial,
+            previous: rri_update::Version::parse("0.9.1"),
         }),
     }
 }
@@ -206,6 +207,9 @@ fn status_json_is_json_and_every_hostile_string_comes_back_exactly() {
     assert_eq!(v["counters"]["fragments"]["no_buffer"], 7);
     assert_eq!(v["counters"]["nic"]["rx_dropped"], 3);
     assert_eq!(v["counters"]["robot_properties"][0]["interval_us"], 4000);
+    assert_eq!(v["update"]["outcome"], "refused");
+    assert_eq!(v["update"]["image"], "on trial");
+    assert_eq!(v["update"]["previous"], "0.9.1");
     let bad = &v["last_bad_message"];
     assert_eq!(latin1(bad["bytes"].as_str().unwrap()), every_byte());
     assert_eq!(

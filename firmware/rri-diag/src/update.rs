@@ -17,6 +17,9 @@ pub struct Update {
     pub last: Outcome,
     /// Where the running image stands (on trial after a swap).
     pub image: rri_update::lifecycle::Image,
+    /// The version this image replaced, when an update swapped it in
+    /// (known from its start; `None` otherwise).
+    pub previous: Option<Version>,
 }
 
 /// The response status for `outcome`, the answer to a `PUT /firmware`.
@@ -222,6 +225,7 @@ mod tests {
                 swaps: true,
                 last,
                 image: rri_update::lifecycle::Image::Confirmed,
+                previous: None,
             });
             assert!(text.starts_with("HTTP/1.1 "), "{text}");
             assert!(text.contains(code), "{last:?}: {text}");
@@ -243,6 +247,7 @@ mod tests {
                 older: true,
             },
             image: rri_update::lifecycle::Image::Confirmed,
+            previous: None,
         });
         assert!(
             text.contains("200 OK")
@@ -258,6 +263,7 @@ mod tests {
                 older: false,
             },
             image: rri_update::lifecycle::Image::Confirmed,
+            previous: None,
         });
         assert!(
             text.contains("no bootloader yet, so nothing swaps it in"),

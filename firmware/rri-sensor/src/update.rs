@@ -76,11 +76,30 @@ pub fn install() {
     let life = Lifecycle::new(on_trial, board::update::SWAPS);
     rri_diag::tasks::DESK.set_image(life.image());
     if on_trial {
-        defmt::warn!(
-            "update: version {=str} was just swapped in and is on trial: it confirms itself at OPERATING (or after {=u64} s without a controller); a reset before that brings the previous image back",
-            crate::version::VERSION,
-            rri_update::lifecycle::SELF_TEST_MS / 1000
+        // What the image that marked this one noted: the version this
+        // one replaced (the confirmation erases the note).
+        let used = rri_update::state_used(
+            board::update::active(),
+            <RamFlash as NorFlash>::ERASE_SIZE,
+            <RamFlash as NorFlash>::WRITE_SIZE,
         );
+        let previous = rri_update::previous(partitions().state, used);
+        rri_diag::tasks::DESK.set_previous(previous);
+        match previous {
+            Some(v) => defmt::warn!(
+                "update: version {=str} was just swapped in, replacing version {=u16}.{=u16}.{=u16}, and is on trial: it confirms itself at OPERATING (or after {=u64} s without a controller); a reset before that brings the previous image back",
+                crate::version::VERSION,
+                v.major,
+                v.minor,
+                v.patch,
+                rri_update::lifecycle::SELF_TEST_MS / 1000
+            ),
+            None => defmt::warn!(
+                "update: version {=str} was just swapped in (what it replaced is not known) and is on trial: it confirms itself at OPERATING (or after {=u64} s without a controller); a reset before that brings the previous image back",
+                crate::version::VERSION,
+                rri_update::lifecycle::SELF_TEST_MS / 1000
+            ),
+        }
     }
     install_receiver();
     READ.lock(|c| c.set(Some(life)));

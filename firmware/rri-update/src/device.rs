@@ -77,6 +77,15 @@ pub struct Device<DFU: NorFlash, STATE: NorFlash> {
 }
 
 impl<DFU: NorFlash, STATE: NorFlash> Device<DFU, STATE> {
+    /// The version the image that marked this one noted before the swap
+    /// (`None`: not swapped in by an update, or the note was lost): read
+    /// at start-up, while this image is on trial (its confirmation erases
+    /// the note).
+    pub fn previous(&self) -> Option<Version> {
+        let used = crate::upload::state_used(self.active, DFU::ERASE_SIZE, STATE::WRITE_SIZE);
+        crate::upload::previous((self.partitions)().state, used)
+    }
+
     /// The desk of a device: `partitions` gives handles on the update and
     /// state partitions (called once per upload), `active` is the active
     /// partition's size, `running` this image, `key` the public key built
@@ -114,10 +123,16 @@ impl<DFU: NorFlash, STATE: NorFlash> Receive for Device<DFU, STATE> {
     }
 
     fn finish(&mut self, force: bool) -> Result<Trailer, Refused> {
-        match self.upload.take() {
-            Some(up) => up.finish(&self.running, &self.key, force),
-            None => Err(Refused::NoUpload),
-        }
+        let Some(up) = self.upload.take() else {
+            return Err(Refused::NoUpload);
+        };
+        let trailer = up.finish(&self.running, &self.key, force)?;
+        // Marked: the version the new image will say it replaced. Its
+        // loss (no room past embassy-boot's words, a flash error) costs
+        // that line of the status only.
+        let used = crate::upload::state_used(self.active, DFU::ERASE_SIZE, STATE::WRITE_SIZE);
+        let _ = crate::upload::note_previous((self.partitions)().state, self.running.version, used);
+        Ok(trailer)
     }
 
     fn abandon(&mut self) {

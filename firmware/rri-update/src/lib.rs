@@ -35,7 +35,10 @@ mod upload;
 pub use device::{Device, Outcome, Receive};
 pub use embassy_boot::{FirmwareUpdaterConfig, State};
 pub use image::{Running, Trailer, Version, SIGNATURE_LEN, TRAILER_LEN};
-pub use upload::{cancel, confirm, state, Refused, Upload, STAGE, WORD_MAX};
+pub use upload::{
+    cancel, confirm, note_previous, previous, state, state_used, Refused, Upload, PREVIOUS_LEN,
+    STAGE, WORD_MAX,
+};
 
 #[cfg(feature = "sign")]
 pub mod sign;

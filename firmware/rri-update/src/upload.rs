@@ -3,7 +3,7 @@
 //! check passed, so a refused, abandoned or cut-off upload leaves the
 //! state partition as it was: the bootloader boots the running image.
 
-use crate::image::{BadTrailer, Running, Trailer, SIGNATURE_LEN, TRAILER_LEN};
+use crate::image::{BadTrailer, Running, Trailer, Version, SIGNATURE_LEN, TRAILER_LEN};
 use embassy_boot::{BlockingFirmwareState, FirmwareUpdaterConfig, FirmwareUpdaterError, State};
 use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
 
@@ -372,6 +372,80 @@ pub fn state<STATE: NorFlash>(state: STATE, aligned: &mut [u8]) -> Result<State,
     BlockingFirmwareState::new(state, aligned)
         .get_state()
         .map_err(Refused::from)
+}
+
+/// Bytes of the note [`note_previous`] writes (a whole number of the state
+/// partition's write units is taken for it).
+pub const PREVIOUS_LEN: usize = 12;
+const PREVIOUS_MAGIC: [u8; 4] = *b"RRIP";
+
+/// Where the note sits: the state partition's last write units, when
+/// they lie past `used` bytes (embassy-boot's magic and progress words,
+/// which it writes from the partition's start).
+fn previous_at<STATE: NorFlash>(state: &STATE, used: usize) -> Option<(u32, usize)> {
+    let len = PREVIOUS_LEN.next_multiple_of(STATE::WRITE_SIZE);
+    let at = state.capacity().checked_sub(len)?;
+    (len <= WORD_MAX && at >= used && at.is_multiple_of(STATE::WRITE_SIZE))
+        .then(|| u32::try_from(at).ok().map(|at| (at, len)))
+        .flatten()
+}
+
+/// The check word of a note of `v`.
+fn previous_check(v: Version) -> u16 {
+    v.major ^ v.minor.rotate_left(5) ^ v.patch.rotate_left(10) ^ 0x5A5A
+}
+
+/// Notes the running image's `version` where the image it has just marked
+/// for the swap finds it after the swap ([`previous`]): the state
+/// partition's last bytes, past the `used` bytes embassy-boot writes from
+/// its start. Written after the mark, whose erase would clear it; the
+/// bootloader's swap leaves it; the new image's confirmation and a
+/// rollback erase the partition, and with it the note. A cut before it is
+/// written costs the note only (the new image then says it does not know
+/// what it replaced).
+pub fn note_previous<STATE: NorFlash>(
+    mut state: STATE,
+    version: Version,
+    used: usize,
+) -> Result<(), Refused> {
+    let (at, len) = previous_at(&state, used).ok_or(Refused::Buffer)?;
+    let mut word = Word([0xFF; WORD_MAX]);
+    let [m0, m1, m2, m3] = PREVIOUS_MAGIC;
+    let [a0, a1] = version.major.to_le_bytes();
+    let [b0, b1] = version.minor.to_le_bytes();
+    let [c0, c1] = version.patch.to_le_bytes();
+    let [k0, k1] = previous_check(version).to_le_bytes();
+    let note = [m0, m1, m2, m3, a0, a1, b0, b1, c0, c1, k0, k1];
+    for (d, s) in word.0.iter_mut().zip(note) {
+        *d = s;
+    }
+    let buf = word.0.get(..len).ok_or(Refused::Buffer)?;
+    state.write(at, buf).map_err(flash)
+}
+
+/// The version the image that marked this one noted ([`note_previous`]):
+/// what this image replaced, read at start-up while it is on trial.
+pub fn previous<STATE: NorFlash>(mut state: STATE, used: usize) -> Option<Version> {
+    let (at, len) = previous_at(&state, used)?;
+    let mut word = Word([0; WORD_MAX]);
+    let buf = word.0.get_mut(..len)?;
+    state.read(at, buf).ok()?;
+    let [m0, m1, m2, m3, a0, a1, b0, b1, c0, c1, k0, k1, ..] = word.0;
+    let v = Version {
+        major: u16::from_le_bytes([a0, a1]),
+        minor: u16::from_le_bytes([b0, b1]),
+        patch: u16::from_le_bytes([c0, c1]),
+    };
+    ([m0, m1, m2, m3] == PREVIOUS_MAGIC && u16::from_le_bytes([k0, k1]) == previous_check(v))
+        .then_some(v)
+}
+
+/// The bytes of the state partition embassy-boot may write (its magic and
+/// progress words) for an active partition of `active` bytes swapped in
+/// pages of `page` bytes: at most `2 + 2 × pages` write units (embassy-boot's
+/// own bound on the partition's size).
+pub fn state_used(active: usize, page: usize, write: usize) -> usize {
+    (2 + 2 * active.div_ceil(page.max(1))) * write
 }
 
 /// Cancels a marked update before its swap: the state partition says

@@ -133,8 +133,11 @@ fn main() -> ExitCode {
     match waited {
         Ok(s) => {
             println!(
-                "device: running {} (last reset: {}; this image: {})",
+                "device: running {}{} (last reset: {}; this image: {})",
                 s.version,
+                s.previous
+                    .as_deref()
+                    .map_or(String::new(), |p| format!(", replacing {p}")),
                 s.last_reset.as_deref().unwrap_or("?"),
                 s.image.as_deref().unwrap_or("?")
             );

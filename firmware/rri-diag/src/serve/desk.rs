@@ -9,7 +9,7 @@ use core::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use embassy_sync::blocking_mutex::Mutex as Blocking;
 use embassy_sync::mutex::Mutex;
 use rri_update::lifecycle::Image;
-use rri_update::{Outcome, Receive};
+use rri_update::{Outcome, Receive, Version};
 
 /// Where uploads go. Without a receiver installed (a firmware built
 /// without an update key, or a board without update partitions) the
@@ -20,6 +20,7 @@ pub struct Desk {
     swaps: AtomicBool,
     last: Blocking<Cs, Cell<Outcome>>,
     image: AtomicU8,
+    previous: Blocking<Cs, Cell<Option<Version>>>,
 }
 
 impl Default for Desk {
@@ -37,6 +38,7 @@ impl Desk {
             swaps: AtomicBool::new(false),
             last: Blocking::new(Cell::new(Outcome::None)),
             image: AtomicU8::new(Image::Confirmed.code()),
+            previous: Blocking::new(Cell::new(None)),
         }
     }
 
@@ -80,6 +82,12 @@ impl Desk {
         self.image.store(image.code(), Ordering::Relaxed);
     }
 
+    /// The version this image replaced (the board reads it at start-up,
+    /// after a swap).
+    pub fn set_previous(&self, previous: Option<Version>) {
+        self.previous.lock(|c| c.set(previous));
+    }
+
     /// Where the running image stands.
     pub fn image(&self) -> Image {
         Image::from_code(self.image.load(Ordering::Relaxed))
@@ -96,6 +104,7 @@ impl Desk {
             swaps: self.swaps.load(Ordering::Relaxed),
             last: self.last(),
             image: self.image(),
+            previous: self.previous.lock(|c| c.get()),
         })
     }
 }
