@@ -294,16 +294,18 @@ pub fn course(
         ran,
     ))?;
     // 3. The robot stopped: the device restarts into the swap.
+    let stopped = Instant::now();
     let s = until(http, Duration::from_secs(60), &|s| {
         s.version == images.b_version
     })?;
+    let back = stopped.elapsed().as_secs_f64();
     step(
         if s.image.as_deref() == Some("on trial")
             && s.last_reset.as_deref() == Some("software")
             && s.previous.as_deref() == Some(images.a_version.as_str())
         {
             Ok(format!(
-                "the robot stopped: the device restarted (last reset: software) into B, version {}, on trial, replacing {}",
+                "the robot stopped: {back:.1} s later the device answered again, restarted (last reset: software) into B, version {}, on trial, replacing {}",
                 s.version, images.a_version
             ))
         } else {

@@ -2,6 +2,15 @@
 
 use super::*;
 
+/// Every byte a response writer gives.
+struct All(Vec<u8>);
+
+impl super::super::Out for All {
+    fn bytes(&mut self, b: &[u8]) {
+        self.0.extend_from_slice(b);
+    }
+}
+
 fn parse(bytes: &[u8]) -> Parsed {
     Parser::new().feed(bytes)
 }
@@ -190,12 +199,6 @@ fn pipelined_requests_after_the_first_are_ignored() {
 
 #[test]
 fn responses_close_the_connection_and_say_their_length() {
-    struct All(Vec<u8>);
-    impl super::super::Out for All {
-        fn bytes(&mut self, b: &[u8]) {
-            self.0.extend_from_slice(b);
-        }
-    }
     let mut a = All(Vec::new());
     error(&mut a, Status::MethodNotAllowed);
     let text = String::from_utf8(a.0).unwrap();
@@ -360,12 +363,6 @@ fn delete_firmware_cancels_without_a_body_and_only_with_updates_built_in() {
         Parsed::Refused(Status::MethodNotAllowed)
     );
     // /firmware's 405 names both methods it takes.
-    struct All(Vec<u8>);
-    impl super::super::Out for All {
-        fn bytes(&mut self, b: &[u8]) {
-            self.0.extend_from_slice(b);
-        }
-    }
     let mut a = All(Vec::new());
     error(&mut a, Status::PutOnly);
     let text = String::from_utf8(a.0).unwrap();

