@@ -383,7 +383,7 @@ const PREVIOUS_MAGIC: [u8; 4] = *b"RRIP";
 /// they lie past `used` bytes (embassy-boot's magic and progress words,
 /// which it writes from the partition's start).
 fn previous_at<STATE: NorFlash>(state: &STATE, used: usize) -> Option<(u32, usize)> {
-    let len = PREVIOUS_LEN.next_multiple_of(STATE::WRITE_SIZE);
+    let len = PREVIOUS_LEN.next_multiple_of(STATE::WRITE_SIZE.max(1));
     let at = state.capacity().checked_sub(len)?;
     (len <= WORD_MAX && at >= used && at.is_multiple_of(STATE::WRITE_SIZE))
         .then(|| u32::try_from(at).ok().map(|at| (at, len)))
