@@ -1,15 +1,17 @@
 //! Chooses the board's memory map for the linker.
 //!
 //! The firmware links with `-Trri-board.x`, which this script writes. The
-//! root `memory.x` is the NUCLEO-F767ZI's, and the linker looks for
-//! cortex-m-rt's `INCLUDE memory.x` in its working directory (the workspace
-//! root) before any search path, so another board cannot just put its own
-//! `memory.x` on the search path: it would be silently ignored. A board with
-//! its own map therefore gets a complete script: its `MEMORY` block
-//! (`memory/<board>.x`) followed by cortex-m-rt's own `link.x.in` without
-//! the `INCLUDE memory.x` line. The F767 (and a build with no board) uses
-//! cortex-m-rt's `link.x` as it is. `cargo boards` checks the result in
-//! each board's ELF (`host-tests/src/boards.rs`, `board_map.rs`).
+//! linker looks for cortex-m-rt's `INCLUDE memory.x` in its working
+//! directory (the workspace root, whose `memory.x` is the NUCLEO-F767ZI
+//! application's) before any search path, so a board cannot just put its
+//! own `memory.x` on the search path: it would be silently ignored. Every
+//! board therefore gets a complete script: its flash partitions
+//! (`memory/<board>-flash.x`), its `MEMORY` block (`memory/<board>.x`, the
+//! root `memory.x` for the F767, or the bootloader's `<board>-boot.x`),
+//! then cortex-m-rt's own `link.x.in` without the `INCLUDE memory.x`
+//! line. Only a build with no board uses cortex-m-rt's `link.x` as it is.
+//! `cargo boards` checks the result in each board's ELF
+//! (`host-tests/src/boards.rs`, `board_map.rs`).
 
 use std::path::{Path, PathBuf};
 
@@ -38,10 +40,19 @@ const OWN_MAP: &[OwnMap] = &[
         device_x: false,
     },
     OwnMap {
+        feature: "nucleo-f767zi",
+        // The root memory.x: the workspace's own map (the F767 was the
+        // first board), now one board among the others.
+        map: "../memory.x",
+        boot: Some("memory/nucleo-f767zi-boot.x"),
+        flash: Some("memory/nucleo-f767zi-flash.x"),
+        device_x: true,
+    },
+    OwnMap {
         feature: "nucleo-h743zi",
         map: "memory/nucleo-h743zi.x",
-        boot: None,
-        flash: None,
+        boot: Some("memory/nucleo-h743zi-boot.x"),
+        flash: Some("memory/nucleo-h743zi-flash.x"),
         device_x: true,
     },
 ];

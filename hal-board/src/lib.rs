@@ -121,8 +121,13 @@ pub mod mps2_an500;
 #[cfg(all(feature = "mps2-an500", feature = "boot", target_os = "none"))]
 pub mod mps2_an500_boot;
 
-#[cfg(all(feature = "stm32", target_os = "none"))]
+#[cfg(all(app_board, feature = "stm32"))]
 pub mod nucleo;
+
+#[cfg(all(feature = "stm32", feature = "boot", target_os = "none"))]
+pub mod nucleo_boot;
+
+pub mod boot;
 
 #[cfg(all(
     target_os = "none",
@@ -146,8 +151,11 @@ pub use mps2_an500 as board;
 #[cfg(all(feature = "mps2-an500", feature = "boot", target_os = "none"))]
 pub use mps2_an500_boot as board;
 /// The board this firmware is built for.
-#[cfg(all(feature = "stm32", target_os = "none"))]
+#[cfg(all(app_board, feature = "stm32"))]
 pub use nucleo as board;
+/// The board this bootloader is built for.
+#[cfg(all(feature = "stm32", feature = "boot", target_os = "none"))]
+pub use nucleo_boot as board;
 
 #[cfg(test)]
 mod missed_tests {

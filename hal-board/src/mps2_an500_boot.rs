@@ -22,9 +22,10 @@ use embedded_storage::nor_flash::{NorFlash, ReadNorFlash};
 /// The name bootloader messages carry.
 pub const NAME: &str = "QEMU mps2-an500";
 
-/// The erase unit the bootloader swaps by (embassy-boot's page): the
-/// flash model's sector ([`crate::ram_flash::SECTOR`]).
-pub const PAGE: usize = crate::ram_flash::SECTOR;
+/// The bootloader's copy buffer (embassy-boot's `aligned_buf`: a
+/// divisor of its swap page, which is the largest erase unit): the flash
+/// model's sector ([`crate::ram_flash::SECTOR`]).
+pub const COPY_BUFFER: usize = crate::ram_flash::SECTOR;
 
 /// The partitions the bootloader works on, each handed out once.
 pub struct Flash {
@@ -67,25 +68,38 @@ pub fn holds_image(flash: &mut RamFlash, origin: u32) -> bool {
         return false;
     }
     let [a, b, c, d, e, f, g, h] = words;
-    let sp = u32::from_le_bytes([a, b, c, d]);
-    let reset = u32::from_le_bytes([e, f, g, h]);
-    let len = flash.capacity() as u32;
-    (0x2000_0000..=0x2040_0000).contains(&sp)
-        && sp % 4 == 0
-        && reset & 1 == 1
-        && (origin..origin.saturating_add(len)).contains(&(reset & !1))
+    crate::boot::looks_like_image(
+        u32::from_le_bytes([a, b, c, d]),
+        u32::from_le_bytes([e, f, g, h]),
+        origin,
+        flash.capacity() as u32,
+        (0x2000_0000, 0x2040_0000),
+    )
 }
 
 /// Copies the factory image into the active partition, as a probe
 /// flashes a board's first image: erased first, then programmed. Only
 /// while the active partition holds no image ([`holds_image`]): the
 /// caller checks.
-pub fn install_factory(active: &mut RamFlash) -> Result<(), crate::ram_flash::Error> {
+fn install_factory(active: &mut RamFlash) -> Result<(), crate::ram_flash::Error> {
     let image = factory();
     let len = image.len().min(active.capacity());
     let len = len - len % crate::ram_flash::SECTOR;
     active.erase(0, len as u32)?;
     active.write(0, image.get(..len).unwrap_or(&[]))
+}
+
+/// Puts the first image into an active partition that holds none: the
+/// factory image QEMU's loader wrote ([`install_factory`]). Why it cannot,
+/// in the bootloader's words.
+pub fn install_first_image(active: &mut RamFlash) -> Result<(), &'static str> {
+    install_factory(active)
+        .map_err(|_| "cannot write the factory image into the active partition")?;
+    if active_holds_image(active) {
+        Ok(())
+    } else {
+        Err("no image in the active partition, and none in the factory region to install")
+    }
 }
 
 /// Whether the active partition holds an image ([`holds_image`]).
@@ -100,18 +114,11 @@ pub fn start_active(mut active: RamFlash) -> ! {
     if !active_holds_image(&mut active) {
         fail("no image in the active partition to start");
     }
-    let origin = active_origin();
     // SAFETY: the partition holds a vector table (checked); the bootloader
     // enabled no interrupt and set nothing up that the image could meet;
-    // VTOR takes the partition's start (a multiple of 128:
-    // `memory/mps2-an500-flash.x`).
-    unsafe {
-        let scb = &*cortex_m::peripheral::SCB::PTR;
-        scb.vtor.write(origin);
-        cortex_m::asm::dsb();
-        cortex_m::asm::isb();
-        cortex_m::asm::bootload(origin as usize as *const u32)
-    }
+    // the partition's start is a multiple of 128
+    // (`memory/mps2-an500-flash.x`).
+    unsafe { crate::boot::start(active_origin()) }
 }
 
 /// Ends the run with `why` on QEMU's standard error and exit status 1.

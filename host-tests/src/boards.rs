@@ -22,6 +22,10 @@ pub struct Board {
     /// Static RAM budget in bytes: `.data`, `.bss`, `.uninit` (the stack
     /// takes the rest of RAM).
     pub ram_budget: u64,
+    /// The cargo alias that builds its bootloader (`firmware/rri-boot`).
+    pub boot_alias: &'static str,
+    /// Its flash partitions, the map both images link with.
+    pub flash_map: &'static str,
 }
 
 const KIB: u64 = 1024;
@@ -37,6 +41,8 @@ pub const BOARDS: [Board; 2] = [
         memory_map: "memory.x",
         flash_budget: 256 * KIB,
         ram_budget: 96 * KIB,
+        boot_alias: "build-f767-boot",
+        flash_map: "hal-board/memory/nucleo-f767zi-flash.x",
     },
     Board {
         name: "nucleo-h743zi",
@@ -44,6 +50,8 @@ pub const BOARDS: [Board; 2] = [
         memory_map: "hal-board/memory/nucleo-h743zi.x",
         flash_budget: 256 * KIB,
         ram_budget: 96 * KIB,
+        boot_alias: "build-h743-boot",
+        flash_map: "hal-board/memory/nucleo-h743zi-flash.x",
     },
 ];
 
@@ -65,6 +73,41 @@ pub fn build(board: &Board) -> Result<PathBuf, String> {
         return Err(format!("`cargo {}` failed ({status})", board.alias));
     }
     crate::qemu::keep_image_from(&image_dir(board), "boards", board.name)
+}
+
+/// Builds `board`'s bootloader with its alias (once per process: the
+/// rehosted runs each need it) and copies the ELF to
+/// `target/boards/<name>-boot.elf`.
+pub fn build_boot(board: &Board) -> Result<PathBuf, String> {
+    static BUILT: std::sync::Mutex<Vec<(&str, PathBuf)>> = std::sync::Mutex::new(Vec::new());
+    let mut built = BUILT
+        .lock()
+        .map_err(|_| "the bootloaders' build lock is poisoned")?;
+    if let Some((_, elf)) = built.iter().find(|(name, _)| *name == board.name) {
+        return Ok(elf.clone());
+    }
+    crate::mcu_target::ensure()?;
+    crate::cargo(
+        &[board.boot_alias],
+        &format!("`cargo {}`", board.boot_alias),
+    )?;
+    let from = image_dir(board)
+        .join(crate::qemu::TARGET)
+        .join(crate::qemu::PROFILE)
+        .join("rri-boot");
+    let dir = crate::qemu::target_dir().join("boards");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let elf = dir.join(format!("{}-boot.elf", board.name));
+    std::fs::copy(&from, &elf)
+        .map_err(|e| format!("{} → {}: {e}", from.display(), elf.display()))?;
+    built.push((board.name, elf.clone()));
+    Ok(elf)
+}
+
+/// `board`'s flash map's text.
+pub fn flash_map(board: &Board) -> Result<String, String> {
+    let path = crate::workspace().join(board.flash_map);
+    std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// The target directory `board`'s alias builds in (its own, so that one
@@ -148,9 +191,9 @@ mod tests {
     #[test]
     fn data_counts_in_flash_and_ram() {
         let sections = [
-            (".vector_table".to_string(), 0x0800_0000, 0x1f8),
-            (".text".to_string(), 0x0800_01f8, 0x1000),
-            (".rodata".to_string(), 0x0800_11f8, 0x200),
+            (".vector_table".to_string(), 0x0808_0000, 0x1f8),
+            (".text".to_string(), 0x0808_01f8, 0x1000),
+            (".rodata".to_string(), 0x0808_11f8, 0x200),
             (".data".to_string(), 0x2007_0000, 0x100),
             (".bss".to_string(), 0x2007_0100, 0x800),
             (".uninit".to_string(), 0x2007_0900, 0x400),
@@ -166,10 +209,20 @@ mod tests {
 
     #[test]
     fn the_maps_put_ram_in_the_dtcm_and_the_dma_rings_where_the_dma_reaches() {
-        for (board, dma) in [(&BOARDS[0], 0x2002_0000), (&BOARDS[1], 0x2400_0000)] {
+        // FLASH is the active partition of the board's flash map (issue 43).
+        for (board, dma, active) in [
+            (&BOARDS[0], 0x2002_0000, (0x0808_0000, 512 * KIB)),
+            (&BOARDS[1], 0x2400_0000, (0x0804_0000, 768 * KIB)),
+        ] {
             let map = std::fs::read_to_string(crate::workspace().join(board.memory_map)).unwrap();
             let r = regions(&map).unwrap();
-            assert_eq!(r[0], ("FLASH".to_string(), 0x0800_0000, 2048 * KIB));
+            assert_eq!(r[0], ("FLASH".to_string(), active.0, active.1));
+            let flash = flash_map(board).unwrap();
+            let part = crate::flash_map::partitions(&flash).unwrap();
+            assert!(
+                part.contains(&("active", active.0 as u32, active.1 as u32)),
+                "{part:?}"
+            );
             assert_eq!(
                 r[1],
                 ("RAM".to_string(), 0x2000_0000, 128 * KIB),
@@ -186,7 +239,7 @@ mod tests {
         // 4 MiB) is refused.
         let map = std::fs::read_to_string(crate::workspace().join(BOARDS[1].memory_map)).unwrap();
         let qemu = [
-            (".vector_table".to_string(), 0x0800_0000, 0x1f8),
+            (".vector_table".to_string(), 0x0804_0000, 0x1f8),
             (".bss".to_string(), 0x2010_0000, 0x100),
         ];
         assert!(check_memory_map(&qemu, &regions(&map).unwrap()).is_err());

@@ -24,6 +24,7 @@ pub mod demo;
 pub mod device;
 pub mod diagnostics;
 pub mod differential;
+pub mod flash_map;
 pub mod flash_model;
 pub mod fuzzing;
 pub mod hil;

@@ -112,6 +112,30 @@ pub fn command(chip: &str, elf: &Path, selector: Option<&str>, catch_faults: boo
     cmd
 }
 
+/// `probe-rs download` of `elf` on `chip` (the board's bootloader, issue
+/// 43: the application is linked into the active partition, and the chip
+/// starts the bootloader, which `probe-rs run` of the application alone
+/// does not write). Only the sectors it holds are erased.
+pub fn download(chip: &str, elf: &Path, selector: Option<&str>) -> Result<(), String> {
+    let mut cmd = Command::new(program());
+    cmd.args(["download", "--chip", chip]);
+    if let Some(s) = selector {
+        cmd.args(["--probe", s]);
+    }
+    let status = cmd
+        .arg(elf)
+        .status()
+        .map_err(|e| format!("{}: {e}", program()))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!(
+            "`probe-rs download` of {} failed ({status})",
+            elf.display()
+        ))
+    }
+}
+
 /// A running `probe-rs run` and the log lines it printed.
 pub struct ProbeRun {
     child: Child,

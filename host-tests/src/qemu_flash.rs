@@ -28,23 +28,7 @@ pub fn map_path() -> PathBuf {
     crate::workspace().join("hal-board/memory/mps2-an500-flash.x")
 }
 
-/// The symbol `name`'s value in the map's text (`NAME = VALUE;`, VALUE a
-/// [`crate::memory_map::number`]).
-fn value(map: &str, name: &str) -> Result<u32, String> {
-    let expr = map
-        .lines()
-        .find_map(|l| l.trim().strip_prefix(name)?.trim_start().strip_prefix('='))
-        .ok_or_else(|| format!("the QEMU board's flash map has no `{name} = …;`"))?
-        .trim()
-        .trim_end_matches(';');
-    crate::memory_map::number(expr)
-        .and_then(|n| u32::try_from(n).ok())
-        .ok_or_else(|| {
-            format!(
-                "the QEMU board's flash map: `{name}`'s `{expr}` is not a number this reader takes"
-            )
-        })
-}
+use crate::flash_map::value;
 
 /// Reads `__factory`, `__factory_len` and `__update_active` from the map's
 /// text.
@@ -56,45 +40,12 @@ pub fn regions(map: &str) -> Result<Regions, String> {
     })
 }
 
-/// The board's partitions in flash order: what each is for, its start and
-/// its length.
-pub fn partitions(map: &str) -> Result<Vec<(&'static str, u32, u32)>, String> {
-    [
-        ("bootloader", "__boot"),
-        ("factory image", "__factory"),
-        ("active", "__update_active"),
-        ("state", "__update_state"),
-        ("update", "__update_dfu"),
-    ]
-    .iter()
-    .map(|&(what, name)| Ok((what, value(map, name)?, value(map, &format!("{name}_len"))?)))
-    .collect()
-}
-
 /// The partition table with what the bootloader `boot` and the
 /// application `app` (ELFs) take of theirs, one line each.
 pub fn table(boot: &Path, app: &Path) -> Result<Vec<String>, String> {
     let map = std::fs::read_to_string(map_path())
         .map_err(|e| format!("{}: {e}", map_path().display()))?;
-    let size = |elf: &Path| -> Result<usize, String> {
-        let bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
-        Ok(crate::update_file::flat_image(&bytes)?.1.len())
-    };
-    let (boot, app) = (size(boot)?, size(app)?);
-    Ok(partitions(&map)?
-        .into_iter()
-        .map(|(what, at, len)| {
-            let used = match what {
-                "bootloader" => Some(boot),
-                "active" | "factory image" => Some(app),
-                _ => None,
-            };
-            let used = used.map_or(String::new(), |u| {
-                format!(": {u} B used, {} B free", (len as usize).saturating_sub(u))
-            });
-            format!("{what:<14} {at:#010x} {:>5} KiB{used}", len / 1024)
-        })
-        .collect())
+    crate::flash_map::table(&map, boot, app)
 }
 
 /// The factory image of the application `elf`: its flash bytes, which
@@ -195,7 +146,7 @@ mod tests {
     #[test]
     fn the_partitions_are_listed_in_flash_order_apart() {
         let map = std::fs::read_to_string(map_path()).unwrap();
-        let p = partitions(&map).unwrap();
+        let p = crate::flash_map::partitions(&map).unwrap();
         assert_eq!(p.len(), 5);
         for pair in p.windows(2) {
             assert!(pair[0].1 + pair[0].2 <= pair[1].1, "{pair:?}");

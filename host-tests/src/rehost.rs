@@ -193,14 +193,26 @@ pub fn build_engine() -> Result<PathBuf, String> {
     Ok(crate::qemu::target_dir().join("release").join("rri-rehost"))
 }
 
+/// The NUCLEO board `board` names ("f767" or "h743").
+fn board_named(board: &str) -> Result<&'static crate::boards::Board, String> {
+    crate::boards::BOARDS
+        .iter()
+        .find(|b| b.alias == format!("build-{board}"))
+        .ok_or_else(|| format!("no board {board:?} (f767 or h743)"))
+}
+
+/// The board's bootloader (`firmware/rri-boot`), built through its
+/// alias (`cargo build-f767-boot`, `build-h743-boot`) once per process:
+/// every image is linked into the active partition and started by it, so
+/// the engine programs both.
+pub fn boot_image(board: &str) -> Result<PathBuf, String> {
+    crate::boards::build_boot(board_named(board)?)
+}
+
 /// The board's image, built through its alias (`cargo build-f767`,
 /// `build-h743`) and kept at `target/boards/<name>.elf`.
 pub fn board_image(board: &str) -> Result<PathBuf, String> {
-    let b = crate::boards::BOARDS
-        .iter()
-        .find(|b| b.alias == format!("build-{board}"))
-        .ok_or_else(|| format!("no board {board:?} (f767 or h743)"))?;
-    crate::boards::build(b)
+    crate::boards::build(board_named(board)?)
 }
 
 /// The board's image built from the TCP device's GSI folder (`--tcp`),
@@ -292,10 +304,13 @@ pub fn corpus_file() -> Result<PathBuf, String> {
 
 /// Runs the engine on `elf` with `args`; its exit status.
 pub fn run_engine(engine: &Path, board: &str, elf: &Path, args: &[String]) -> Result<i32, String> {
+    let boot = boot_image(board)?;
     let status = Command::new(engine)
         .current_dir(crate::workspace())
         .args(["--board", board, "--elf"])
         .arg(elf)
+        .arg("--boot")
+        .arg(boot)
         .args(args)
         .status()
         .map_err(|e| format!("{}: {e}", engine.display()))?;
@@ -359,6 +374,7 @@ pub fn boot_elf(
     extra: &[&str],
 ) -> Result<(Rehosted, std::net::SocketAddr, Option<std::net::SocketAddr>), String> {
     ensure_build_tools(&mut std::io::stdout())?;
+    let boot = boot_image(board)?;
     let engine = build_engine()?;
     let robot = crate::qemu::free_port()?;
     let http = crate::qemu::free_tcp_port()?;
@@ -366,6 +382,8 @@ pub fn boot_elf(
     cmd.current_dir(crate::workspace())
         .args(["--board", board, "--elf"])
         .arg(elf)
+        .arg("--boot")
+        .arg(&boot)
         .args([
             "--device",
             &format!(

@@ -1,9 +1,10 @@
 //! The bootloader: the first code a board runs, from its own partition.
 //!
-//! 1. Where the board has no probe to put the first image in place (QEMU:
-//!    its loader writes a factory image beside the bootloader), it copies
-//!    that image into the active partition, once, while the partition
-//!    holds none.
+//! 1. While the active partition holds no image, it puts the first one
+//!    there where the board can (QEMU: its loader writes a factory image
+//!    beside the bootloader, copied once); on a NUCLEO the probe flashes
+//!    the first image (`cargo f767`, `cargo h743`), and without one the
+//!    bootloader says so.
 //! 2. It finishes what embassy-boot left: an interrupted rollback or
 //!    confirmation ([`rri_update::boot::prepare`]), then the swap a marked
 //!    update asks for, or the swap back when the image swapped in last
@@ -23,9 +24,9 @@ mod boot {
     use embassy_boot::BootLoaderConfig;
     use hal_board::board;
 
-    /// embassy-boot's page buffer: one erase unit of the board's flash.
+    /// embassy-boot's copy buffer (a divisor of its swap page).
     #[repr(C, align(32))]
-    struct Page([u8; board::PAGE]);
+    struct Buffer([u8; board::COPY_BUFFER]);
 
     #[cortex_m_rt::entry]
     fn main() -> ! {
@@ -38,16 +39,11 @@ mod boot {
             board::fail("the partitions were taken twice")
         };
         if !board::active_holds_image(&mut active) {
-            if board::install_factory(&mut active).is_err() {
-                board::fail("cannot write the factory image into the active partition");
-            }
-            if !board::active_holds_image(&mut active) {
-                board::fail(
-                    "no image in the active partition, and none in the factory region to install",
-                );
+            if let Err(why) = board::install_first_image(&mut active) {
+                board::fail(why);
             }
         }
-        let mut page = Page([0; board::PAGE]);
+        let mut page = Buffer([0; board::COPY_BUFFER]);
         let config = BootLoaderConfig {
             active: &mut active,
             dfu,

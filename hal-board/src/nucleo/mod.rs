@@ -49,10 +49,11 @@ pub mod clock;
 pub mod memory;
 pub mod phy;
 
-/// Update in the cell (issue 43): no update partitions on these boards
-/// yet (no bootloader image, no flash driver for them), so the firmware
-/// builds no upload in. They are products: the demonstration key must
-/// never be built into them (the firmware's build refuses it).
+/// Update in the cell (issue 43): these boards have their bootloader
+/// and partitions (`memory/nucleo-*-flash.x`), but the application has
+/// no flash driver for an upload yet, so the firmware builds no upload
+/// in. They are products: the demonstration key must never be built into
+/// them (the firmware's build refuses it).
 pub mod update {
     /// The demonstration key, which anyone can sign with, may not be
     /// built in.

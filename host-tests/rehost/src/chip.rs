@@ -48,6 +48,9 @@ pub struct Chip {
     /// Another address range that shows the flash (F7: the ITCM
     /// interface): (its base, the flash's base, size).
     pub flash_alias: Option<(u32, u32, u32)>,
+    /// The main flash (its base and size, every bank): erased (all ones)
+    /// at power-on, before the images are programmed into it.
+    pub flash: (u32, u32),
     /// MPU regions (MPU_TYPE.DREGION): 8 on the F7, 16 on the H7.
     pub mpu_regions: u32,
     /// Memory the core's caches never hold (the TCMs).
@@ -97,6 +100,7 @@ pub const STM32F767ZI: Chip = Chip {
     // The DTCM through the core's AHBS port, SRAM1, SRAM2.
     eth_dma_reaches: &[(0x2000_0000, 0x2008_0000)],
     vtor: 0x0020_0000,
+    flash: (0x0800_0000, 2048 * K),
     mpu_regions: 8,
     flash_alias: Some((0x0020_0000, 0x0800_0000, 2048 * K)),
     tightly_coupled: &[(0x0000_0000, 0x0000_4000), (0x2000_0000, 0x2002_0000)],
@@ -133,6 +137,7 @@ pub const STM32H743ZI: Chip = Chip {
     ],
     tightly_coupled: &[(0x0000_0000, 0x0001_0000), (0x2000_0000, 0x2002_0000)],
     vtor: 0x0800_0000,
+    flash: (0x0800_0000, 2048 * K),
     mpu_regions: 16,
     flash_alias: None,
 };

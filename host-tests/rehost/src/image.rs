@@ -91,6 +91,31 @@ impl Image {
         })
     }
 
+    /// The chip's flash as a probe leaves it after programming the
+    /// bootloader `boot` and this application: both images' segments,
+    /// and their functions for every stop's description. This image's
+    /// symbols win where both name one (the RTT block, `main`). Fails
+    /// when the two overlap: the application is not linked into the
+    /// board's active partition.
+    pub fn with_boot(mut self, boot: Image) -> Result<Image, String> {
+        for a in &self.loads {
+            for b in &boot.loads {
+                let (a0, a1) = (a.addr, a.addr + a.bytes.len() as u64);
+                let (b0, b1) = (b.addr, b.addr + b.bytes.len() as u64);
+                if a0 < b1 && b0 < a1 {
+                    return Err(format!(
+                        "the image ({a0:#010x}..{a1:#010x}) overlaps the bootloader ({b0:#010x}..{b1:#010x}): is it linked into the board's active partition (`cargo build-f767` / `build-h743`)?"
+                    ));
+                }
+            }
+        }
+        self.loads.extend(boot.loads);
+        self.functions.extend(boot.functions);
+        self.functions.sort_by_key(|f| f.0);
+        self.symbols.extend(boot.symbols);
+        Ok(self)
+    }
+
     /// The address of a symbol by its exact (mangled) name.
     pub fn symbol(&self, name: &str) -> Option<u64> {
         self.symbols
@@ -142,5 +167,50 @@ impl Image {
             let b = l.bytes.get(at..at + 4)?;
             Some(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Image, Load};
+
+    fn image(at: u64, len: usize, symbol: &str) -> Image {
+        Image {
+            loads: vec![Load {
+                addr: at,
+                bytes: vec![0xA5; len],
+            }],
+            functions: vec![(at, 4, symbol.to_string())],
+            symbols: vec![(symbol.to_string(), at), ("main".to_string(), at + 8)],
+        }
+    }
+
+    #[test]
+    fn the_bootloader_and_an_image_in_the_active_partition_load_together() {
+        let both = image(0x0808_0000, 0x100, "app")
+            .with_boot(image(0x0800_0000, 0x100, "boot"))
+            .unwrap();
+        assert_eq!(both.loads.len(), 2);
+        assert_eq!(both.word(0x0800_0000), Some(0xA5A5_A5A5));
+        assert_eq!(both.describe(0x0800_0002), "boot+0x2");
+        assert_eq!(both.describe(0x0808_0002), "app+0x2");
+        // The application's symbols win (its `main`, its RTT block).
+        assert_eq!(both.symbol("main"), Some(0x0808_0008));
+    }
+
+    #[test]
+    fn an_image_linked_over_the_bootloader_is_refused() {
+        // An image from before issue 43, linked at the flash's start.
+        let e = image(0x0800_0000, 0x1000, "app")
+            .with_boot(image(0x0800_0000, 0x100, "boot"))
+            .unwrap_err();
+        assert!(e.contains("active partition"), "{e}");
+        // One byte of overlap is enough.
+        assert!(image(0x0800_00FF, 0x10, "app")
+            .with_boot(image(0x0800_0000, 0x100, "boot"))
+            .is_err());
+        assert!(image(0x0800_0100, 0x10, "app")
+            .with_boot(image(0x0800_0000, 0x100, "boot"))
+            .is_ok());
     }
 }

@@ -108,6 +108,17 @@ impl Machine {
             uc.mem_map(u64::from(m.base), u64::from(m.size), prot)
                 .map_err(e(m.name))?;
         }
+        // A chip's flash leaves the factory erased: all ones (RM0410
+        // §3.3.5, RM0433 §4.3.9). A bootloader reads its state partition
+        // and an image partition's vector table there before anything is
+        // written.
+        let erased = vec![0xFF; chip.flash.1 as usize];
+        uc.mem_write(u64::from(chip.flash.0), &erased)
+            .map_err(e("erased flash"))?;
+        if let Some((alias, _, size)) = chip.flash_alias {
+            uc.mem_write(u64::from(alias), erased.get(..size as usize).unwrap_or(&[]))
+                .map_err(e("erased flash alias"))?;
+        }
         for load in &image.loads {
             if chip.memory_at(load.addr).is_none() {
                 return Err(format!(

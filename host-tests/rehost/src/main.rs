@@ -20,6 +20,17 @@ struct Args {
     /// The image (default: the one `cargo build-f767` / `build-h743` writes).
     #[arg(long)]
     elf: Option<PathBuf>,
+    /// The bootloader the chip starts, which starts the image (default:
+    /// the one `cargo build-f767-boot` / `build-h743-boot` writes). Every
+    /// NUCLEO image is linked into the active partition (issue 43), so
+    /// both are programmed, as a board holds them.
+    #[arg(long)]
+    boot: Option<PathBuf>,
+    /// Program the bootloader alone, as on a board whose probe flashed
+    /// only that: the bootloader must say it found no image and stop
+    /// (with `--expect-stop`, CI's check of its failure path).
+    #[arg(long)]
+    no_image: bool,
     /// Stop after this many core cycles of virtual time (default: without
     /// `--device`, 2,000,000,000; with it, until the robot's run is over
     /// or Ctrl-C).
@@ -106,7 +117,17 @@ fn main() {
             "target/{dir}/thumbv7em-none-eabihf/firmware/rri-sensor"
         ))
     });
-    let image = Image::read(&elf).unwrap_or_else(|e| fail(2, &e));
+    let boot = args.boot.clone().unwrap_or_else(|| {
+        PathBuf::from(format!(
+            "target/{dir}/thumbv7em-none-eabihf/firmware/rri-boot"
+        ))
+    });
+    let image = if args.no_image {
+        Image::read(&boot)
+    } else {
+        Image::read(&elf).and_then(|image| image.with_boot(Image::read(&boot)?))
+    }
+    .unwrap_or_else(|e| fail(2, &e));
     let until = args.until.as_ref().map(|name| {
         image
             .symbol(name)
@@ -122,7 +143,7 @@ fn main() {
     if let Some(addr) = until {
         m.stop_at(addr).unwrap_or_else(|e| fail(2, &e));
     }
-    if args.log {
+    if args.log && !args.no_image {
         let elf_bytes = std::fs::read(&elf).unwrap_or_default();
         m.rtt =
             m.uc.get_data()
@@ -146,12 +167,22 @@ fn main() {
         m.paced = !args.deterministic && args.robot.is_none();
         forwards = Some((robot, http, device));
     }
-    println!(
-        "rehost: {} ({}) on {}, one instruction a core cycle",
-        elf.display(),
-        args.board,
-        chip.name
-    );
+    if args.no_image {
+        println!(
+            "rehost: {} alone, no image in the active partition ({}) on {}, one instruction a core cycle",
+            boot.display(),
+            args.board,
+            chip.name
+        );
+    } else {
+        println!(
+            "rehost: {} started by {} ({}) on {}, one instruction a core cycle",
+            elf.display(),
+            boot.display(),
+            args.board,
+            chip.name
+        );
+    }
     let mut robot = None;
     if let Some(n) = args.robot {
         let gsi = args.gsi.clone().unwrap_or_else(|| {

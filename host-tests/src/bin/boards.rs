@@ -4,7 +4,10 @@
 //! and placement rules (`host_tests::board_map`: DMA rings uncached and
 //! reachable, stack and statics in the DTCM), prints its sections (as
 //! `size -A` does) and fails when one is broken or flash or static RAM is
-//! over the board's budget. CI runs it; no board is needed.
+//! over the board's budget. It builds the board's bootloader too
+//! (`cargo build-f767-boot`, `build-h743-boot`), checks that each image
+//! lies in its partition and prints the partition table with what each
+//! image leaves free. CI runs it; no board is needed.
 
 use clap::{Parser, ValueEnum};
 use host_tests::boards::{self, Board, BOARDS};
@@ -48,7 +51,17 @@ fn main() -> ExitCode {
             // went.
             stack = print_sections(board, &elf, &host_tests::memory_map::sections(&elf)?);
             sensor = host_tests::memory_map::sensor_statics(&elf)?;
-            boards::check(board, &elf)
+            let usage = boards::check(board, &elf)?;
+            // The bootloader the chip starts (issue 43), and where both
+            // images lie in the board's flash.
+            let boot = boards::build_boot(board)?;
+            let map = boards::flash_map(board)?;
+            host_tests::flash_map::check(&map, &boot, &elf)?;
+            println!("partitions ({}):", board.flash_map);
+            for line in host_tests::flash_map::table(&map, &boot, &elf)? {
+                println!("  {line}");
+            }
+            Ok(usage)
         });
         if let Err(e) = &result {
             eprintln!("error: {e}");

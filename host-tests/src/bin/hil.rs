@@ -243,6 +243,18 @@ fn start(board: &HilBoard, args: &Args, setup: &Setup, elf: PathBuf) -> Result<S
                 None => setup.channel()?,
                 Some(t) => parse_to(t, setup.device.channel.port)?,
             };
+            // The bootloader first: the chip starts it, and it starts
+            // the image (issue 43).
+            let b = host_tests::boards::BOARDS
+                .iter()
+                .find(|b| Some(b.name) == board.map)
+                .ok_or_else(|| format!("no memory map for {}", board.key))?;
+            let boot = host_tests::boards::build_boot(b)?;
+            println!(
+                "== flashing the bootloader {} on {chip} with probe-rs",
+                boot.display()
+            );
+            probe::download(chip, &boot, args.probe.as_deref())?;
             println!(
                 "== flashing and running {} on {chip} with probe-rs",
                 elf.display()

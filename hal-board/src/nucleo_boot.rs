@@ -1,0 +1,195 @@
+//! The bootloader's side of the NUCLEO boards (hal-board's `boot`
+//! feature; the bootloader is `firmware/rri-boot`): its partitions over
+//! embassy-stm32's blocking flash driver, the jump into the application,
+//! and how it fails.
+//!
+//! Nothing of the application's board comes with it: no clocks set up
+//! (the chip runs on its reset clock, the HSI, which the flash needs no
+//! wait states for), no executor, no network, no handlers
+//! (cortex-m-rt's defaults). The bootloader runs alone, before the
+//! application, from its own partition (`memory/nucleo-*-boot.x`), and
+//! leaves the chip as it found it but for the flash it wrote.
+//!
+//! It says nothing when all is well. A bootloader that cannot start the
+//! application lights the red user LED (LD3, PB14 on every NUCLEO-144),
+//! logs why over RTT (`probe-rs attach --chip … rri-boot` shows it) and
+//! sleeps with every interrupt off.
+#![allow(unsafe_code)]
+
+use core::cell::RefCell;
+use core::sync::atomic::{AtomicBool, Ordering};
+use defmt_rtt as _;
+use embassy_embedded_hal::flash::partition::BlockingPartition;
+use embassy_stm32::flash::{Blocking, Flash as Driver};
+use embassy_sync::blocking_mutex::raw::NoopRawMutex;
+use embassy_sync::blocking_mutex::Mutex;
+use embedded_storage::nor_flash::ReadNorFlash;
+
+/// The name bootloader messages carry.
+#[cfg(feature = "nucleo-f767zi")]
+pub const NAME: &str = "NUCLEO-F767ZI";
+/// The name bootloader messages carry.
+#[cfg(feature = "nucleo-h743zi")]
+pub const NAME: &str = "NUCLEO-H743ZI2";
+
+/// The bootloader's copy buffer (embassy-boot's `aligned_buf`: a
+/// divisor of its swap page, the largest sector, and a multiple of the
+/// flash's write size: 16 bytes on the F767, 32 on the H743).
+pub const COPY_BUFFER: usize = 4096;
+
+/// The DTCM, where every NUCLEO image's stack is (its initial stack
+/// pointer lies there).
+const DTCM: (u32, u32) = (0x2000_0000, 0x2002_0000);
+
+/// One partition of the chip's flash.
+pub type Partition = BlockingPartition<'static, NoopRawMutex, Driver<'static, Blocking>>;
+
+/// The partitions the bootloader works on, each handed out once.
+pub struct Flash {
+    /// The image that runs.
+    pub active: Partition,
+    /// The update partition.
+    pub dfu: Partition,
+    /// embassy-boot's state partition.
+    pub state: Partition,
+}
+
+extern "C" {
+    static __flash: u8;
+    static __update_active: u8;
+    static __update_active_len: u8;
+    static __update_state: u8;
+    static __update_state_len: u8;
+    static __update_dfu: u8;
+    static __update_dfu_len: u8;
+}
+
+/// A linker symbol's address (never read through; the chip's addresses
+/// are 32-bit).
+fn symbol(s: &u8) -> u32 {
+    core::ptr::from_ref(s) as usize as u32
+}
+
+static TAKEN: AtomicBool = AtomicBool::new(false);
+
+impl Flash {
+    /// The partitions, the first time; `None` after.
+    pub fn take() -> Option<Flash> {
+        if TAKEN.swap(true, Ordering::AcqRel) {
+            return None;
+        }
+        static DRIVER: static_cell::StaticCell<
+            Mutex<NoopRawMutex, RefCell<Driver<'static, Blocking>>>,
+        > = static_cell::StaticCell::new();
+        // SAFETY: the flash controller is handed out once (TAKEN) and the
+        // bootloader runs alone: nothing else drives it.
+        let flash = unsafe { embassy_stm32::peripherals::FLASH::steal() };
+        let driver = DRIVER.init(Mutex::new(RefCell::new(Driver::new_blocking(flash))));
+        // SAFETY: linker symbols (`memory/nucleo-*-flash.x`), only their
+        // addresses taken.
+        let (base, part) = unsafe {
+            (
+                symbol(&__flash),
+                [
+                    (symbol(&__update_active), symbol(&__update_active_len)),
+                    (symbol(&__update_dfu), symbol(&__update_dfu_len)),
+                    (symbol(&__update_state), symbol(&__update_state_len)),
+                ],
+            )
+        };
+        // Offsets from the flash's start, as the driver counts; the map's
+        // ASSERTs keep each partition whole erase units (the partition's
+        // own rule, which panics otherwise).
+        let [active, dfu, state] =
+            part.map(|(at, len)| Partition::new(driver, at.wrapping_sub(base), len));
+        Some(Flash { active, dfu, state })
+    }
+}
+
+/// Whether the active partition starts with a vector table of an image
+/// linked there ([`crate::boot::looks_like_image`]). Erased flash is
+/// none.
+pub fn active_holds_image(active: &mut Partition) -> bool {
+    let mut words = [0u8; 8];
+    if active.read(0, &mut words).is_err() {
+        return false;
+    }
+    let [a, b, c, d, e, f, g, h] = words;
+    // SAFETY: a linker symbol's address.
+    let origin = unsafe { symbol(&__update_active) };
+    crate::boot::looks_like_image(
+        u32::from_le_bytes([a, b, c, d]),
+        u32::from_le_bytes([e, f, g, h]),
+        origin,
+        active.capacity() as u32,
+        DTCM,
+    )
+}
+
+/// A NUCLEO's first image is flashed by a probe into the active
+/// partition: the bootloader has none to install.
+pub fn install_first_image(_: &mut Partition) -> Result<(), &'static str> {
+    #[cfg(feature = "nucleo-f767zi")]
+    const WHY: &str = "no image in the active partition: flash one with `cargo f767` (probe-rs)";
+    #[cfg(feature = "nucleo-h743zi")]
+    const WHY: &str = "no image in the active partition: flash one with `cargo h743` (probe-rs)";
+    Err(WHY)
+}
+
+/// Starts the image in the active partition (its handle given up).
+/// Fails when the partition holds no image.
+pub fn start_active(mut active: Partition) -> ! {
+    if !active_holds_image(&mut active) {
+        fail("no image in the active partition to start");
+    }
+    // SAFETY: the partition holds a vector table (checked); the bootloader
+    // enabled no interrupt and started no clock or peripheral (the flash
+    // controller is locked again after every operation); the partition's
+    // start is a multiple of 128 (whole sectors: the flash maps' ASSERTs).
+    unsafe { crate::boot::start(symbol(&__update_active)) }
+}
+
+/// Lights the red LED, logs `why` and stops, with interrupts off.
+pub fn fail(why: &str) -> ! {
+    cortex_m::interrupt::disable();
+    defmt::error!("rri-boot on {=str}: {=str}", NAME, why);
+    red_led_on();
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// LD3 (PB14, active high on every NUCLEO-144), driven through the
+/// registers: the bootloader has no HAL set up.
+fn red_led_on() {
+    use embassy_stm32::pac;
+    #[cfg(feature = "nucleo-f767zi")]
+    pac::RCC.ahb1enr().modify(|w| w.set_gpioben(true));
+    #[cfg(feature = "nucleo-h743zi")]
+    pac::RCC.ahb4enr().modify(|w| w.set_gpioben(true));
+    // The clock reaches the port two cycles after the enable (RM0410
+    // §5.2.2, RM0433 §8.5.10): read it back first.
+    #[cfg(feature = "nucleo-f767zi")]
+    let _ = pac::RCC.ahb1enr().read();
+    #[cfg(feature = "nucleo-h743zi")]
+    let _ = pac::RCC.ahb4enr().read();
+    pac::GPIOB.bsrr().write(|w| w.set_bs(14, true));
+    pac::GPIOB
+        .moder()
+        .modify(|w| w.set_moder(14, pac::gpio::vals::Moder::OUTPUT));
+}
+
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    fail("panicked (the bootloader has no panic path by design: a bug)")
+}
+
+/// embassy-stm32's own checks (`defmt::unwrap!`, `defmt::panic!`) end
+/// here, as every other panic does.
+#[defmt::panic_handler]
+fn defmt_panic() -> ! {
+    fail("panicked in embassy-stm32 (a check of its own failed)")
+}
+
+// The bootloader's log lines carry no time: it keeps none.
+defmt::timestamp!("");
