@@ -137,7 +137,11 @@ fn main() {
     // firmware's and the diagnostics' build scripts read it
     // (`DEP_RRI_HAL_BOARD_UPDATES`); a board without partitions carries
     // none of it.
-    let updates = !bare_metal || std::env::var_os("CARGO_FEATURE_MPS2_AN500").is_some();
+    // Not the F767 (`nucleo::update` there says why).
+    let updates = !bare_metal
+        || ["MPS2_AN500", "NUCLEO_H743ZI"]
+            .iter()
+            .any(|f| std::env::var_os(format!("CARGO_FEATURE_{f}")).is_some());
     println!("cargo::metadata=updates={}", u8::from(updates));
 }
 

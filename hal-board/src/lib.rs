@@ -127,6 +127,9 @@ pub mod nucleo;
 #[cfg(all(feature = "stm32", feature = "boot", target_os = "none"))]
 pub mod nucleo_boot;
 
+#[cfg(all(feature = "stm32", target_os = "none"))]
+pub mod nucleo_flash;
+
 pub mod boot;
 
 #[cfg(all(

@@ -214,6 +214,9 @@ pub fn cycle_counter() -> u32 {
 pub mod update {
     use crate::ram_flash::RamFlash;
 
+    /// One partition of the board's flash (RAM with a NOR flash's rules).
+    pub type Partition = RamFlash;
+
     /// The board an update file must name (`cargo sign-image -- sign
     /// --board qemu`).
     pub const BOARD: &str = "mps2-an500";

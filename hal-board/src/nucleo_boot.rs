@@ -25,6 +25,8 @@ use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use embedded_storage::nor_flash::ReadNorFlash;
 
+use crate::nucleo_flash as flash;
+
 /// The name bootloader messages carry.
 #[cfg(feature = "nucleo-f767zi")]
 pub const NAME: &str = "NUCLEO-F767ZI";
@@ -54,22 +56,6 @@ pub struct Flash {
     pub state: Partition,
 }
 
-extern "C" {
-    static __flash: u8;
-    static __update_active: u8;
-    static __update_active_len: u8;
-    static __update_state: u8;
-    static __update_state_len: u8;
-    static __update_dfu: u8;
-    static __update_dfu_len: u8;
-}
-
-/// A linker symbol's address (never read through; the chip's addresses
-/// are 32-bit).
-fn symbol(s: &u8) -> u32 {
-    core::ptr::from_ref(s) as usize as u32
-}
-
 static TAKEN: AtomicBool = AtomicBool::new(false);
 
 impl Flash {
@@ -83,25 +69,12 @@ impl Flash {
         > = static_cell::StaticCell::new();
         // SAFETY: the flash controller is handed out once (TAKEN) and the
         // bootloader runs alone: nothing else drives it.
-        let flash = unsafe { embassy_stm32::peripherals::FLASH::steal() };
-        let driver = DRIVER.init(Mutex::new(RefCell::new(Driver::new_blocking(flash))));
-        // SAFETY: linker symbols (`memory/nucleo-*-flash.x`), only their
-        // addresses taken.
-        let (base, part) = unsafe {
-            (
-                symbol(&__flash),
-                [
-                    (symbol(&__update_active), symbol(&__update_active_len)),
-                    (symbol(&__update_dfu), symbol(&__update_dfu_len)),
-                    (symbol(&__update_state), symbol(&__update_state_len)),
-                ],
-            )
-        };
-        // Offsets from the flash's start, as the driver counts; the map's
-        // ASSERTs keep each partition whole erase units (the partition's
-        // own rule, which panics otherwise).
-        let [active, dfu, state] =
-            part.map(|(at, len)| Partition::new(driver, at.wrapping_sub(base), len));
+        let controller = unsafe { embassy_stm32::peripherals::FLASH::steal() };
+        let driver = DRIVER.init(Mutex::new(RefCell::new(Driver::new_blocking(controller))));
+        // The map's ASSERTs keep each partition whole erase units (the
+        // partition's own rule, which panics otherwise).
+        let [active, dfu, state] = [flash::active(), flash::dfu(), flash::state()]
+            .map(|p| Partition::new(driver, p.offset, p.len));
         Some(Flash { active, dfu, state })
     }
 }
@@ -115,8 +88,7 @@ pub fn active_holds_image(active: &mut Partition) -> bool {
         return false;
     }
     let [a, b, c, d, e, f, g, h] = words;
-    // SAFETY: a linker symbol's address.
-    let origin = unsafe { symbol(&__update_active) };
+    let origin = flash::active_origin();
     crate::boot::looks_like_image(
         u32::from_le_bytes([a, b, c, d]),
         u32::from_le_bytes([e, f, g, h]),
@@ -146,7 +118,7 @@ pub fn start_active(mut active: Partition) -> ! {
     // enabled no interrupt and started no clock or peripheral (the flash
     // controller is locked again after every operation); the partition's
     // start is a multiple of 128 (whole sectors: the flash maps' ASSERTs).
-    unsafe { crate::boot::start(symbol(&__update_active)) }
+    unsafe { crate::boot::start(flash::active_origin()) }
 }
 
 /// Lights the red LED, logs `why` and stops, with interrupts off.

@@ -212,7 +212,7 @@ mod tests {
         // FLASH is the active partition of the board's flash map (issue 43).
         for (board, dma, active) in [
             (&BOARDS[0], 0x2002_0000, (0x0808_0000, 512 * KIB)),
-            (&BOARDS[1], 0x2400_0000, (0x0804_0000, 768 * KIB)),
+            (&BOARDS[1], 0x2400_0000, (0x0802_0000, 768 * KIB)),
         ] {
             let map = std::fs::read_to_string(crate::workspace().join(board.memory_map)).unwrap();
             let r = regions(&map).unwrap();
@@ -239,7 +239,7 @@ mod tests {
         // 4 MiB) is refused.
         let map = std::fs::read_to_string(crate::workspace().join(BOARDS[1].memory_map)).unwrap();
         let qemu = [
-            (".vector_table".to_string(), 0x0804_0000, 0x1f8),
+            (".vector_table".to_string(), 0x0802_0000, 0x1f8),
             (".bss".to_string(), 0x2010_0000, 0x100),
         ];
         assert!(check_memory_map(&qemu, &regions(&map).unwrap()).is_err());

@@ -98,7 +98,7 @@ pub fn table(map: &str, boot: &Path, app: &Path) -> Result<Vec<String>, String> 
             };
             let used = used.map_or(String::new(), |u| {
                 let of = if what == "update" {
-                    " (an update of this size)"
+                    " (this image's update file)"
                 } else {
                     ""
                 };

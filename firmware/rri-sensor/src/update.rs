@@ -12,12 +12,12 @@
 //! as any other method the service does not take.
 
 use crate::board;
+use crate::board::update::Partition;
 use crate::update_key::{key, KEY};
 use core::cell::Cell;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::blocking_mutex::Mutex as Blocking;
 use embedded_storage::nor_flash::NorFlash;
-use hal_board::ram_flash::RamFlash;
 use rri_firmware::engine::SensorState;
 use rri_firmware::snapshot::Snapshot;
 use rri_update::lifecycle::{Image, Lifecycle, Seen, Step, TRIAL_MS};
@@ -34,17 +34,17 @@ const RUNNING: Running<'static> = Running {
     },
 };
 
-type Receiver = Device<RamFlash, RamFlash>;
+type Receiver = Device<Partition, Partition>;
 
 static RECEIVER: StaticCell<Receiver> = StaticCell::new();
 
-fn partitions() -> FirmwareUpdaterConfig<RamFlash, RamFlash> {
+fn partitions() -> FirmwareUpdaterConfig<Partition, Partition> {
     let (dfu, state) = board::update::partitions();
     FirmwareUpdaterConfig { dfu, state }
 }
 
 /// The state partition's write unit, for embassy-boot's view of it.
-type Word = [u8; <RamFlash as NorFlash>::WRITE_SIZE];
+type Word = [u8; <Partition as NorFlash>::WRITE_SIZE];
 
 /// The running image's course after an update (`rri_update::lifecycle`):
 /// read from the state partition at start-up, ticked by housekeeping.
@@ -62,7 +62,7 @@ static READ: Blocking<CriticalSectionRawMutex, Cell<Option<Lifecycle>>> =
 /// service stays read-only). The course exists with or without a key: an
 /// image swapped in must confirm itself either way ([`Course::take`]).
 pub fn install() {
-    let mut word: Word = [0; <RamFlash as NorFlash>::WRITE_SIZE];
+    let mut word: Word = [0; <Partition as NorFlash>::WRITE_SIZE];
     let on_trial = match rri_update::state(partitions().state, &mut word) {
         Ok(state) => state == State::Swap,
         Err(e) => {
@@ -80,8 +80,8 @@ pub fn install() {
         // one replaced (the confirmation erases the note).
         let used = rri_update::state_used(
             board::update::active(),
-            <RamFlash as NorFlash>::ERASE_SIZE,
-            <RamFlash as NorFlash>::WRITE_SIZE,
+            <Partition as NorFlash>::ERASE_SIZE,
+            <Partition as NorFlash>::WRITE_SIZE,
         );
         let previous = rri_update::previous(partitions().state, used);
         rri_diag::tasks::DESK.set_previous(previous);
@@ -130,7 +130,7 @@ impl Course {
         match self.life.tick(seen) {
             Step::Wait => {}
             Step::Confirm(why) => {
-                let mut word: Word = [0; <RamFlash as NorFlash>::WRITE_SIZE];
+                let mut word: Word = [0; <Partition as NorFlash>::WRITE_SIZE];
                 match rri_update::confirm(partitions().state, &mut word) {
                     Ok(()) => defmt::info!(
                         "update: version {=str} confirmed: {=str}",
@@ -168,7 +168,13 @@ impl Course {
 /// service stays read-only.
 fn install_receiver() {
     let Some(key) = KEY else {
-        defmt::info!("updates: none (RRI_UPDATE_KEY=off): the diagnostics stay read-only");
+        if key::OFF {
+            defmt::info!("updates: none (RRI_UPDATE_KEY=off): the diagnostics stay read-only");
+        } else {
+            defmt::info!(
+                "updates: none (no RRI_UPDATE_KEY at build time; this board takes no demonstration key): the diagnostics stay read-only"
+            );
+        }
         return;
     };
     let Some(receiver) = RECEIVER.try_init(Device::new(

@@ -13,6 +13,14 @@ use super::clock::Source;
 use embassy_stm32::adc::SampleTime;
 use embassy_stm32::time::Hertz;
 
+/// The board an update file must name (`cargo sign-image -- sign
+/// --board h743`).
+pub const UPDATE_BOARD: &str = "nucleo-h743zi";
+/// Where the image is linked: the active partition's start
+/// (`memory/nucleo-h743zi-flash.x`; `init` checks it against the map's
+/// symbol, and an update file linked elsewhere is refused).
+pub const UPDATE_ORIGIN: u32 = 0x0802_0000;
+
 pub const NAME: &str = "NUCLEO-H743ZI2";
 /// The core clock: 400 MHz (voltage scale 1; 480 MHz would need VOS0 and a
 /// revision V chip).

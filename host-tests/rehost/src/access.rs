@@ -51,6 +51,63 @@ pub(crate) fn bus_write(uc: &mut Unicorn<State>, addr: u64, size: usize, value: 
     }
 }
 
+/// After an access or an advance: what the flash controller put into
+/// the flash array is written into the flash memory (and the F7's ITCM
+/// alias, which shows the same array), and its stall added to virtual
+/// time (the core waits for a flash operation in the bank it fetches
+/// from).
+fn settle(uc: &mut Unicorn<State>) {
+    let s = uc.get_data_mut();
+    let writes = std::mem::take(&mut s.shared.program);
+    let stall = std::mem::take(&mut s.shared.stall);
+    s.now += stall;
+    let alias = s.chip.flash_alias;
+    for (addr, bytes) in writes {
+        let _ = uc.mem_write(u64::from(addr), &bytes);
+        if let Some((alias, flash, size)) = alias {
+            if addr >= flash && addr - flash < size {
+                let _ = uc.mem_write(u64::from(addr - flash + alias), &bytes);
+            }
+        }
+    }
+}
+
+/// A store by the core into the flash memory (write-protected in
+/// unicorn, so every one arrives here): the flash controller's to program.
+/// Returns whether it was taken; a refusal stops the run on the store.
+pub(crate) fn flash_store(uc: &mut Unicorn<State>, addr: u64, size: usize, value: i64) -> bool {
+    let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
+    let mut old = vec![0; size.min(8)];
+    let _ = uc.mem_read(addr, &mut old);
+    let s = uc.get_data_mut();
+    let mut bus = std::mem::take(&mut s.bus);
+    let mut shared = std::mem::take(&mut s.shared);
+    let now = s.now;
+    let result = {
+        let mut cx = shared.cx(now, crate::bus::no_dma());
+        bus.store(addr as u32, size as u32, value as u64, &old, &mut cx)
+    };
+    let s = uc.get_data_mut();
+    s.bus = bus;
+    s.shared = shared;
+    match result {
+        Ok(()) => {
+            remember(s, pc, addr, size as u32, Some(value as u32), 0);
+            settle(uc);
+            // An operation under way may end at a time of its own: look
+            // for it at the next block.
+            let s = uc.get_data_mut();
+            s.deadline = s.now;
+            true
+        }
+        Err(rule) => {
+            uc.get_data_mut().refuse(rule, Some(addr), pc);
+            let _ = uc.emu_stop();
+            false
+        }
+    }
+}
+
 /// Brings every model up to `now` (with the DMA reaching memory) and
 /// pends the lines they raise.
 pub(crate) fn advance_models(uc: &mut Unicorn<State>) -> Result<(), String> {
@@ -70,6 +127,8 @@ pub(crate) fn advance_models(uc: &mut Unicorn<State>) -> Result<(), String> {
     let s = uc.get_data_mut();
     s.bus = bus;
     s.shared = shared;
+    settle(uc);
+    let s = uc.get_data_mut();
     for irq in s.shared.raised.drain(..) {
         if let Some(p) = s.scs.pending.get_mut(irq as usize) {
             *p = true;
@@ -113,6 +172,7 @@ fn access(
     let s = uc.get_data_mut();
     s.bus = bus;
     s.shared = shared;
+    settle(uc);
     result
 }
 

@@ -27,6 +27,13 @@ pub struct Cx<'a> {
     pub dma: &'a mut dyn Dma,
     /// A model resets the chip (the watchdog expired).
     pub reset: &'a mut Option<ResetCause>,
+    /// Bytes the flash controller put into the flash array (programmed,
+    /// or erased to all ones), for the machine to write into the flash
+    /// memory (and the F7's ITCM alias) after the access.
+    pub program: &'a mut Vec<(u32, Vec<u8>)>,
+    /// Core cycles the access stalls the core for (a flash operation in
+    /// the bank the core fetches from), added to virtual time after it.
+    pub stall: &'a mut u64,
 }
 
 /// Why the chip resets: a system reset, which restarts the core and every
@@ -75,6 +82,8 @@ pub struct Shared {
     pub wiring: Wiring,
     pub link: Link,
     pub reset: Option<ResetCause>,
+    pub program: Vec<(u32, Vec<u8>)>,
+    pub stall: u64,
 }
 
 impl Shared {
@@ -88,6 +97,8 @@ impl Shared {
             link: &mut self.link,
             dma,
             reset: &mut self.reset,
+            program: &mut self.program,
+            stall: &mut self.stall,
         }
     }
 }
@@ -118,6 +129,21 @@ pub trait Peripheral {
     fn keep_reset_flags(&mut self, _kept: u32, _cause: ResetCause) {}
 
     fn next_event(&self, _now: u64) -> Option<u64> {
+        None
+    }
+
+    /// A store of `size` bytes of `value` by the core into the flash
+    /// memory at `addr` (whose bytes are now `old`): the flash
+    /// controller's, which programs it when its rules allow (pushing the
+    /// bytes to `cx.program`). `None`: not this block's.
+    fn store(
+        &mut self,
+        _addr: u32,
+        _size: u32,
+        _value: u64,
+        _old: &[u8],
+        _cx: &mut Cx,
+    ) -> Option<Result<(), Refusal>> {
         None
     }
 }
@@ -163,6 +189,26 @@ impl Bus {
             .iter()
             .filter_map(|b| b.model.next_event(now))
             .min()
+    }
+
+    /// A store by the core into the flash memory, handed to the block
+    /// that programs it (the flash controller); refused when no block
+    /// takes it.
+    pub fn store(
+        &mut self,
+        addr: u32,
+        size: u32,
+        value: u64,
+        old: &[u8],
+        cx: &mut Cx,
+    ) -> Result<(), Refusal> {
+        for b in &mut self.blocks {
+            b.model.advance(cx)?;
+            if let Some(r) = b.model.store(addr, size, value, old, cx) {
+                return r.map_err(|rule| format!("{}: {rule}", b.model.name()));
+            }
+        }
+        Err("a write into flash (read-only to the core; no flash controller programs it)".into())
     }
 
     /// The block holding `addr`, and the offset into it.

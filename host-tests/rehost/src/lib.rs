@@ -12,6 +12,7 @@ pub mod corpus;
 pub mod exceptions;
 pub mod f7;
 pub mod fault;
+pub mod flash_array;
 pub mod gpio;
 pub mod h7;
 pub mod hooks;

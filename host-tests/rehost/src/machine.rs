@@ -179,6 +179,13 @@ impl Machine {
                 if kind == MemType::WRITE_PROT && crate::mpu_enforce::guarded_page(uc, addr) {
                     return crate::mpu_enforce::on_write(uc, addr, size, _value);
                 }
+                let flash = uc.get_data().chip.flash;
+                if kind == MemType::WRITE_PROT
+                    && addr >= u64::from(flash.0)
+                    && addr + size as u64 <= u64::from(flash.0) + u64::from(flash.1)
+                {
+                    return crate::access::flash_store(uc, addr, size, _value);
+                }
                 let what = match kind {
                     MemType::WRITE_PROT => "a write into flash (read-only to the core)".to_string(),
                     MemType::FETCH_UNMAPPED | MemType::FETCH_PROT => {

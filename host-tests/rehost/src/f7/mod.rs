@@ -5,6 +5,7 @@
 
 pub mod adc;
 pub mod eth;
+pub mod flash;
 pub mod power;
 pub mod rcc;
 
@@ -25,7 +26,7 @@ use crate::clocks::Clocks;
 pub fn bus() -> (Bus, Clocks) {
     let mut bus = Bus::default();
     bus.add(0x4002_3800, 0x400, None, rcc::Rcc::new());
-    bus.add(0x4002_3C00, 0x400, None, power::Flash::new());
+    bus.add(0x4002_3C00, 0x400, None, flash::Flash::new());
     bus.add(0x4000_7000, 0x400, Some("PWR"), power::Pwr::new());
     bus.add(0xE004_2000, 0x400, None, Plain::new("DBGMCU", DBGMCU));
     crate::gpio::ports(

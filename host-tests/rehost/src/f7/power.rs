@@ -1,5 +1,5 @@
-//! STM32F76x/77x power control (PWR, RM0410 rev 5 §4.4) and the flash
-//! interface's access control (FLASH_ACR, §3.7.1).
+//! STM32F76x/77x power control (PWR, RM0410 rev 5 §4.4); the flash
+//! interface's wait-state table (its registers: `flash.rs`).
 //!
 //! PWR sets the limits the clock tree is checked against (DS11532
 //! Table 17, "General operating conditions", VDD 2.7-3.6 V): HCLK 144 MHz
@@ -125,56 +125,5 @@ impl Peripheral for Pwr {
 
     fn next_event(&self, _now: u64) -> Option<u64> {
         self.od_ready_at.into_iter().chain(self.odsw_ready_at).min()
-    }
-}
-
-const FLASH_TABLE: &[Reg] = &[
-    reg(0x00, "ACR", 0, 0x0000_0B0F, 0),
-    reg(0x04, "KEYR", 0, 0xFFFF_FFFF, 0),
-    reg(0x08, "OPTKEYR", 0, 0xFFFF_FFFF, 0),
-    reg(0x0C, "SR", 0, 0x0000_00F3, 0x0001_0000),
-    reg(0x10, "CR", 0x8000_0000, 0x0301_07FF, 0x8000_0000),
-    reg(0x14, "OPTCR", 0xFFFF_AAFD, 0xFFFF_FFFF, 0),
-    reg(0x18, "OPTCR1", 0x0040_0080, 0xFFFF_FFFF, 0),
-];
-
-/// The flash interface: ACR's wait states feed the clock check.
-pub struct Flash {
-    regs: Regs,
-}
-
-impl Flash {
-    pub fn new() -> Flash {
-        Flash {
-            regs: Regs::new(FLASH_TABLE),
-        }
-    }
-}
-
-impl Default for Flash {
-    fn default() -> Flash {
-        Flash::new()
-    }
-}
-
-impl Peripheral for Flash {
-    fn name(&self) -> &'static str {
-        "FLASH"
-    }
-
-    fn read(&mut self, offset: u32, size: u32, _cx: &mut Cx) -> Result<u32, Refusal> {
-        self.regs.read("FLASH", offset, size)
-    }
-
-    fn write(&mut self, offset: u32, size: u32, value: u32, cx: &mut Cx) -> Result<(), Refusal> {
-        if offset & !3 != 0 {
-            return Err(format!(
-                "FLASH_{}: written; programming the flash is not modelled yet",
-                self.regs.name(offset)
-            ));
-        }
-        let (_, new) = self.regs.write("FLASH", offset, size, value)?;
-        cx.clocks.flash_latency = new & 0xF;
-        cx.clocks.check()
     }
 }

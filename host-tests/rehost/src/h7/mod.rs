@@ -5,6 +5,7 @@
 
 pub mod adc;
 pub mod eth;
+pub mod flash;
 pub mod power;
 pub mod rcc;
 
@@ -32,7 +33,7 @@ pub fn bus() -> (Bus, Clocks) {
     bus.add(0x5802_4400, 0x400, None, rcc::Rcc::new());
     // PWR has no clock enable on the H7: it is always clocked.
     bus.add(0x5802_4800, 0x400, None, power::Pwr::new());
-    bus.add(0x5200_2000, 0x1000, None, power::Flash::new());
+    bus.add(0x5200_2000, 0x1000, None, flash::Flash::new());
     bus.add(0x5C00_1000, 0x400, None, Plain::new("DBGMCU", DBGMCU));
     crate::gpio::ports(
         &mut bus,

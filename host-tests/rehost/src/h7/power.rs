@@ -1,5 +1,6 @@
 //! STM32H743 power control (PWR, RM0433 rev 8 §6; registers §6.8) and the
-//! flash interface's access control (FLASH_ACR, RM0433 §4.9).
+//! flash interface's wait-state rules (FLASH_ACR, RM0433 §4.9; its
+//! registers: `flash.rs`).
 //!
 //! PWR sets the limits the clock tree is checked against (DS12110 Table 23,
 //! "General operating conditions"): the core clock (sys_ck / D1CPRE), the
@@ -242,78 +243,6 @@ impl Peripheral for Pwr {
     }
 }
 
-const ACR: u32 = 0x00;
-
-/// RM0433 §4.9, bank 1 and bank 2's control registers (fields of ST's
-/// STM32H743 SVD; CR1 and CR2 reset locked, OPTCR with OPTLOCK). Only ACR
-/// may be written: programming is not modelled.
-const FLASH_TABLE: &[Reg] = &[
-    reg(ACR, "ACR", 0x0000_0037, 0x0000_003F, 0),
-    reg(0x04, "KEYR1", 0, 0xFFFF_FFFF, 0),
-    reg(0x08, "OPTKEYR", 0, 0xFFFF_FFFF, 0),
-    reg(0x0C, "CR1", 0x0000_0031, 0x1FEF_87FF, 0),
-    reg(0x10, "SR1", 0, 0, 0x1FEF_000F),
-    reg(0x14, "CCR1", 0, 0x1FEF_0000, 0),
-    reg(0x18, "OPTCR", 0x0000_0001, 0xC000_0013, 0),
-    reg(0x104, "KEYR2", 0, 0xFFFF_FFFF, 0),
-    reg(0x10C, "CR2", 0x0000_0031, 0x1FEF_C7FF, 0),
-    reg(0x110, "SR2", 0, 0, 0x0FEF_000F),
-    reg(0x114, "CCR2", 0, 0x0FEF_0000, 0),
-];
-
-/// ACR, OPTKEYR and OPTCR answer at bank 2's offsets too (0x100 on).
-fn alias(offset: u32) -> u32 {
-    match offset & !3 {
-        0x100 | 0x108 | 0x118 => offset - 0x100,
-        _ => offset,
-    }
-}
-
-/// The flash interface: ACR's wait states and programming delay feed the
-/// clock check.
-pub struct Flash {
-    regs: Regs,
-}
-
-impl Flash {
-    pub fn new() -> Flash {
-        Flash {
-            regs: Regs::new(FLASH_TABLE),
-        }
-    }
-}
-
-impl Default for Flash {
-    fn default() -> Flash {
-        Flash::new()
-    }
-}
-
-impl Peripheral for Flash {
-    fn name(&self) -> &'static str {
-        "FLASH"
-    }
-
-    fn read(&mut self, offset: u32, size: u32, _cx: &mut Cx) -> Result<u32, Refusal> {
-        self.regs.read("FLASH", alias(offset), size)
-    }
-
-    fn write(&mut self, offset: u32, size: u32, value: u32, cx: &mut Cx) -> Result<(), Refusal> {
-        let offset = alias(offset);
-        if offset & !3 != ACR {
-            self.regs.read("FLASH", offset, size)?;
-            return Err(format!(
-                "FLASH_{}: written; programming the flash is not modelled",
-                self.regs.name(offset)
-            ));
-        }
-        let (_, new) = self.regs.write("FLASH", offset, size, value)?;
-        cx.clocks.flash_latency = new & 0xF;
-        cx.clocks.flash_wrhighfreq = (new >> 4) & 3;
-        check(cx.clocks)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -340,11 +269,12 @@ mod tests {
     /// clock with the AXI clock at 200 MHz and every APB at 100.
     fn at_400_mhz(acr: u32) -> Result<Clocks, Refusal> {
         let (_, mut c) = crate::h7::bus();
-        let (mut pwr, mut flash, mut rcc) = (Pwr::new(), Flash::new(), Rcc::new());
+        let (mut pwr, mut flash, mut rcc) =
+            (Pwr::new(), crate::h7::flash::Flash::new(), Rcc::new());
         access(&mut pwr, &mut c, 0, CR3, Some(0x06))?;
         access(&mut pwr, &mut c, 0, D3CR, Some(0xC000))?;
         access(&mut pwr, &mut c, us(VOS_US), D3CR, None)?;
-        access(&mut flash, &mut c, us(VOS_US), ACR, Some(acr))?;
+        access(&mut flash, &mut c, us(VOS_US), 0, Some(acr))?;
         let locked = start_pll1(&mut rcc, &mut c, us(VOS_US), 399, 0)?;
         to_pll1(&mut rcc, &mut c, locked)?;
         Ok(c)
