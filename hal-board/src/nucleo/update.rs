@@ -13,9 +13,10 @@
 //! code runs from bank 1, which reads while bank 2 is written (RM0433
 //! §4.3.5; `cargo rehost` models it).
 //!
-//! The erase is embassy-stm32's interrupt-driven one, polled here until
-//! it ends, with the watchdog fed meanwhile, for at most the datasheet's
-//! longest erase per sector: a 128K erase takes about 2 s (DS12110 Table
+//! The erase is embassy-stm32's interrupt-driven one, polled here at
+//! every interrupt until it ends (the core asleep in between), with the
+//! watchdog fed meanwhile, for at most the datasheet's longest erase per
+//! sector: a 128K erase takes about 2 s (DS12110 Table
 //! 53, at the x8 parallelism embassy-stm32 erases with), as long as the
 //! watchdog's timeout, and the blocking wait would hold the background
 //! executor, housekeeping's feeding included, for all of it. `cargo
@@ -111,6 +112,12 @@ impl NorFlash for BoardFlash {
             if started.elapsed() < bound {
                 feed_watchdog();
             }
+            // Asleep until the next interrupt: the erase's end (EOP), the
+            // cycle's, or the time driver's timer, which interrupts every
+            // 32.8 ms (TIM12, 16 bits at embassy-time's 1 MHz: its
+            // half-period) and so bounds the wait between two feeds. Not
+            // a spin on the flash's status for seconds.
+            cortex_m::asm::wfi();
         }
     }
 

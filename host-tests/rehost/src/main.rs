@@ -26,6 +26,11 @@ struct Args {
     /// both are programmed, as a board holds them.
     #[arg(long)]
     boot: Option<PathBuf>,
+    /// Read the device's log as this image writes it (its RTT block, its
+    /// defmt table): an update's ELF, to read the log after it is
+    /// swapped in (default: `--elf`'s).
+    #[arg(long)]
+    log_elf: Option<PathBuf>,
     /// Program the bootloader alone, as on a board whose probe flashed
     /// only that: the bootloader must say it found no image and stop
     /// (with `--expect-stop`, CI's check of its failure path).
@@ -144,12 +149,18 @@ fn main() {
         m.stop_at(addr).unwrap_or_else(|e| fail(2, &e));
     }
     if args.log && !args.no_image {
-        let elf_bytes = std::fs::read(&elf).unwrap_or_default();
-        m.rtt =
-            m.uc.get_data()
-                .image
+        // The log of the image `--log-elf` names (an update's, once it is
+        // swapped in: its RTT block and its defmt table), else `--elf`'s.
+        let log_elf = args.log_elf.clone().unwrap_or_else(|| elf.clone());
+        let elf_bytes = std::fs::read(&log_elf).unwrap_or_default();
+        let block = if args.log_elf.is_some() {
+            Image::read(&log_elf)
+                .unwrap_or_else(|e| fail(2, &e))
                 .symbol("_SEGGER_RTT")
-                .and_then(|block| rri_rehost::rtt::Rtt::new(&elf_bytes, block));
+        } else {
+            m.uc.get_data().image.symbol("_SEGGER_RTT")
+        };
+        m.rtt = block.and_then(|block| rri_rehost::rtt::Rtt::new(&elf_bytes, block));
     }
     let mut forwards = None;
     if let Some(device) = args.device {
