@@ -137,12 +137,21 @@ fn main() {
     // firmware's and the diagnostics' build scripts read it
     // (`DEP_RRI_HAL_BOARD_UPDATES`); a board without partitions carries
     // none of it.
-    // Not the F767 (`nucleo::update` there says why).
-    let updates = !bare_metal
-        || ["MPS2_AN500", "NUCLEO_H743ZI"]
-            .iter()
-            .any(|f| std::env::var_os(format!("CARGO_FEATURE_{f}")).is_some());
-    println!("cargo::metadata=updates={}", u8::from(updates));
+    // 1: the board takes updates (the QEMU board; the host, for the
+    // service's tests). 2: only with a key of the integrator's built in
+    // (`RRI_UPDATE_KEY`): a product board takes no demonstration key, so
+    // without one its image carries none of the upload's path (and none
+    // of its RAM: the H743's DTCM is the stack's). 0: none (the F767:
+    // `nucleo::update` there says why).
+    let feature = |f: &str| std::env::var_os(format!("CARGO_FEATURE_{f}")).is_some();
+    let updates = if !bare_metal || feature("MPS2_AN500") {
+        1
+    } else if feature("NUCLEO_H743ZI") {
+        2
+    } else {
+        0
+    };
+    println!("cargo::metadata=updates={updates}");
 }
 
 fn read(path: &Path) -> String {

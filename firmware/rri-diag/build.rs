@@ -65,7 +65,7 @@ fn main() {
     // (cfg `rri_update`) where the board has update partitions, and on
     // the host (its tests); a board without them carries none of it.
     println!("cargo::rustc-check-cfg=cfg(rri_update)");
-    if std::env::var("DEP_RRI_HAL_BOARD_UPDATES").as_deref() == Ok("1") {
+    if board_takes_updates() {
         println!("cargo:rustc-cfg=rri_update");
     }
     let src = std::path::Path::new("src/page.html");
@@ -91,3 +91,5 @@ fn main() {
     std::fs::write(out.join("page.html.gz"), bytes).expect("OUT_DIR is writable");
     std::fs::write(out.join("means.js"), means).expect("OUT_DIR is writable");
 }
+
+include!("../update_cfg.rs");

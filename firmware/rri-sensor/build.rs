@@ -63,8 +63,8 @@ fn image_version() {
 fn update_key(workspace: &std::path::Path, http: bool) {
     println!("cargo::rustc-check-cfg=cfg(rri_update)");
     println!("cargo:rerun-if-env-changed=RRI_UPDATE_KEY");
-    let board_has = std::env::var("DEP_RRI_HAL_BOARD_UPDATES").as_deref() == Ok("1")
-        && std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none");
+    let board_has =
+        board_takes_updates() && std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none");
     if board_has && http {
         println!("cargo:rustc-cfg=rri_update");
     }
@@ -100,3 +100,5 @@ fn update_key(workspace: &std::path::Path, http: bool) {
         panic!("cannot write {}: {e}", path.display());
     }
 }
+
+include!("../update_cfg.rs");

@@ -2,7 +2,8 @@
 //! single flash bank cannot take one yet: `nucleo::update` there says
 //! why): the update and state partitions the firmware's receiver writes
 //! (`memory/nucleo-*-flash.x`, read through [`crate::nucleo_flash`]),
-//! over embassy-stm32's blocking flash driver.
+//! over embassy-stm32's flash driver: its blocking reads and writes (a
+//! flash word's program takes 130 us), its interrupt-driven erase.
 //!
 //! Who may touch the flash: the background executor alone, in thread
 //! mode (the diagnostics service's upload, housekeeping's confirmation).
