@@ -64,9 +64,18 @@ fn settle(uc: &mut Unicorn<State>) {
     let alias = s.chip.flash_alias;
     for (addr, bytes) in writes {
         let _ = uc.mem_write(u64::from(addr), &bytes);
+        let len = bytes.len() as u64;
+        let s = uc.get_data_mut();
+        s.code_changed
+            .push((u64::from(addr), u64::from(addr) + len));
+        // The hooks follow the new code before the core runs on (a swap
+        // writes the image the bootloader then jumps to).
+        s.deadline = s.now;
         if let Some((alias, flash, size)) = alias {
             if addr >= flash && addr - flash < size {
-                let _ = uc.mem_write(u64::from(addr - flash + alias), &bytes);
+                let at = u64::from(addr - flash + alias);
+                let _ = uc.mem_write(at, &bytes);
+                uc.get_data_mut().code_changed.push((at, at + len));
             }
         }
     }

@@ -6,37 +6,127 @@ use crate::image::Image;
 use crate::state::State;
 use unicorn_engine::Unicorn;
 
-/// Hooks on the instructions the model must see (ARMv7-M A7.7): WFI and
-/// WFE (the core sleeps until the next event), SEV (the event register),
-/// and CPSIE and MSR to PRIMASK/BASEPRI/FAULTMASK, after which a pending
-/// interrupt may be taken at once.
+/// An instruction the model must see (ARMv7-M A7.7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Seen {
+    /// WFI or WFE: the core sleeps until the next event.
+    Sleep,
+    /// SEV: the event register.
+    Sev,
+    /// CPSIE, or MSR to PRIMASK/BASEPRI/BASEPRI_MAX/FAULTMASK: a pending
+    /// interrupt may be taken at once.
+    Unmask,
+}
+
+/// What the half-word `hw` (followed by `next`) is, if it starts one of
+/// the instructions the model must see. A match in data or inside a
+/// 32-bit instruction is harmless: a code hook fires only where an
+/// instruction starts.
+pub(crate) fn seen(hw: u16, next: u16) -> Option<Seen> {
+    if hw == 0xBF30 || hw == 0xBF20 {
+        Some(Seen::Sleep)
+    } else if hw == 0xBF40 {
+        Some(Seen::Sev)
+    } else if hw == 0xB662
+        || (hw & 0xFFF0 == 0xF380
+            && next & 0xFF00 == 0x8800
+            && (0x10..=0x13).contains(&(next & 0xFF)))
+    {
+        Some(Seen::Unmask)
+    } else {
+        None
+    }
+}
+
+/// Hooks on the instructions the model must see in the image as loaded.
 pub(crate) fn install_instruction_hooks(
     uc: &mut Unicorn<'static, State>,
     image: &Image,
 ) -> Result<(), String> {
-    let sleeps = image.find_code(|hw, _| hw == 0xBF30 || hw == 0xBF20);
-    for addr in sleeps {
-        uc.add_code_hook(addr, addr, |uc, addr, size| {
+    for l in &image.loads {
+        let end = l.addr + l.bytes.len() as u64;
+        uc.get_data_mut().code_changed.push((l.addr, end));
+    }
+    follow_code(uc)
+}
+
+/// Makes the instruction hooks follow what memory now holds where it was
+/// written ([`State::code_changed`]): the flash a swap rewrote holds
+/// another image, whose WFI, SEV and unmasking instructions are at other
+/// addresses. Hooks left at the old image's addresses would make an
+/// arbitrary instruction of the new one a sleep (skipped on wake), and
+/// the new image's own WFIs would run as no-ops. Also drops the
+/// translated blocks and the instruction counts of the changed code.
+pub(crate) fn follow_code(uc: &mut Unicorn<'static, State>) -> Result<(), String> {
+    let changed = std::mem::take(&mut uc.get_data_mut().code_changed);
+    for (start, end) in changed {
+        // A match at `a` reads the half-words at `a` and `a + 2`.
+        let mut from = start.saturating_sub(2) & !1;
+        if uc.mem_read_as_vec(from, 2).is_err() {
+            // The start of a memory.
+            from = start & !1;
+        }
+        let stale: Vec<u64> = uc
+            .get_data()
+            .instruction_hooks
+            .range(from..end)
+            .map(|(a, _)| *a)
+            .collect();
+        for a in stale {
+            if let Some(id) = uc.get_data_mut().instruction_hooks.remove(&a) {
+                uc.remove_hook(id)
+                    .map_err(|e| format!("unicorn: removing a hook: {e:?}"))?;
+            }
+        }
+        let mut bytes = vec![0; (end + 2 - from) as usize];
+        if uc.mem_read(from, &mut bytes).is_err() {
+            // The last half-word past the end of a memory.
+            bytes.truncate(bytes.len() - 2);
+            uc.mem_read(from, &mut bytes)
+                .map_err(|e| format!("unicorn: reading code at {from:#x}: {e:?}"))?;
+        }
+        let hws: Vec<u16> = bytes
+            .chunks_exact(2)
+            .map(|c| u16::from_le_bytes([c[0], c[1]]))
+            .collect();
+        for (i, &hw) in hws.iter().enumerate() {
+            let addr = from + 2 * i as u64;
+            if addr >= end {
+                break;
+            }
+            if let Some(kind) = seen(hw, hws.get(i + 1).copied().unwrap_or(0)) {
+                let id = hook(uc, addr, kind)?;
+                uc.get_data_mut().instruction_hooks.insert(addr, id);
+            }
+        }
+        uc.ctl_remove_cache(from, end)
+            .map_err(|e| format!("unicorn: dropping translated code: {e:?}"))?;
+        // A translated block is at most a page (1K here) long: a count
+        // cached for one starting up to 4K before may cover the change.
+        let low = from.saturating_sub(4096);
+        uc.get_data_mut()
+            .block_sizes
+            .retain(|a, _| *a < low || *a >= end);
+    }
+    Ok(())
+}
+
+/// One instruction's hook.
+fn hook(
+    uc: &mut Unicorn<'static, State>,
+    addr: u64,
+    kind: Seen,
+) -> Result<unicorn_engine::UcHookId, String> {
+    let id = match kind {
+        Seen::Sleep => uc.add_code_hook(addr, addr, |uc, addr, size| {
             let mut hw = [0; 2];
             let _ = uc.mem_read(addr, &mut hw);
             let wfe = u16::from_le_bytes(hw) == 0xBF20;
             uc.get_data_mut().sleeping = Some((addr as u32, size, wfe));
             let _ = uc.emu_stop();
-        })
-        .map_err(|e| format!("unicorn: WFI hook: {e:?}"))?;
-    }
-    for addr in image.find_code(|hw, _| hw == 0xBF40) {
-        uc.add_code_hook(addr, addr, |uc, _, _| uc.get_data_mut().event = true)
-            .map_err(|e| format!("unicorn: SEV hook: {e:?}"))?;
-    }
-    let unmasks = image.find_code(|hw, next| {
-        hw == 0xB662
-            || (hw & 0xFFF0 == 0xF380
-                && next & 0xFF00 == 0x8800
-                && (0x10..=0x13).contains(&(next & 0xFF)))
-    });
-    for addr in unmasks {
-        uc.add_code_hook(addr, addr, |uc, _, _| {
+        }),
+        Seen::Sev => uc.add_code_hook(addr, addr, |uc, _, _| uc.get_data_mut().event = true),
+        Seen::Unmask => uc.add_code_hook(addr, addr, |uc, _, _| {
             let s = uc.get_data();
             let pending = s.scs.pendsv
                 || s.scs.systick_pending
@@ -52,10 +142,9 @@ pub(crate) fn install_instruction_hooks(
                 // (which ends its block: it changes the interrupt mask).
                 uc.get_data_mut().deadline = 0;
             }
-        })
-        .map_err(|e| format!("unicorn: CPSIE hook: {e:?}"))?;
-    }
-    Ok(())
+        }),
+    };
+    id.map_err(|e| format!("unicorn: {kind:?} hook at {addr:#x}: {e:?}"))
 }
 
 /// Thumb-2 instructions in a run of code: a half-word whose top five bits
@@ -75,6 +164,75 @@ pub fn thumb_instructions(code: &[u8]) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A flash holding a vector table (reset to a `b .` at 0x40) and
+    /// `code` half-words from offset 0x20.
+    fn flash_with(code: &[u16]) -> Vec<u8> {
+        let mut f = vec![0xFF; 2048 * 1024];
+        f[0..4].copy_from_slice(&0x2000_1000u32.to_le_bytes());
+        f[4..8].copy_from_slice(&0x0800_0041u32.to_le_bytes());
+        f[0x40..0x42].copy_from_slice(&0xE7FEu16.to_le_bytes());
+        for (i, hw) in code.iter().enumerate() {
+            f[0x20 + 2 * i..0x22 + 2 * i].copy_from_slice(&hw.to_le_bytes());
+        }
+        f
+    }
+
+    fn hooked(m: &crate::machine::Machine) -> Vec<u64> {
+        m.uc.get_data().instruction_hooks.keys().copied().collect()
+    }
+
+    #[test]
+    fn the_instruction_hooks_follow_an_image_written_over_another() {
+        // The old image: a WFI at 0x20. The new one: a NOP there, then
+        // CPSIE i at 0x22, MSR BASEPRI, r0 at 0x24 and SEV at 0x28.
+        let old = flash_with(&[0xBF30]);
+        let mut image = Image::default();
+        image.loads.push(crate::image::Load {
+            addr: 0x0800_0000,
+            bytes: old[..0x100].to_vec(),
+        });
+        let (bus, clocks) = crate::h7::bus();
+        let mut m =
+            crate::machine::Machine::new(crate::chip::STM32H743ZI, image, bus, clocks).unwrap();
+        assert_eq!(hooked(&m), [0x0800_0020]);
+        m.uc.get_data_mut().block_sizes.insert(0x0800_0020, 1);
+        m.uc.get_data_mut().block_sizes.insert(0x0800_4000, 1);
+        // As the flash model's program operations write it: only the
+        // changed range is looked at again.
+        let new: Vec<u8> = [0xBF00u16, 0xB662, 0xF380, 0x8811, 0xBF40]
+            .iter()
+            .flat_map(|hw| hw.to_le_bytes())
+            .collect();
+        m.uc.mem_write(0x0800_0020, &new).unwrap();
+        m.uc.get_data_mut()
+            .code_changed
+            .push((0x0800_0020, 0x0800_0020 + new.len() as u64));
+        follow_code(&mut m.uc).unwrap();
+        assert_eq!(hooked(&m), [0x0800_0022, 0x0800_0024, 0x0800_0028]);
+        // The old block's instruction count is dropped; one past the
+        // change is kept.
+        let sizes = &m.uc.get_data().block_sizes;
+        assert!(!sizes.contains_key(&0x0800_0020));
+        assert!(sizes.contains_key(&0x0800_4000));
+        // A whole flash put in (`--flash-in`) is followed the same way.
+        m.set_flash(&flash_with(&[0xBF20])).unwrap();
+        assert_eq!(hooked(&m), [0x0800_0020]);
+    }
+
+    #[test]
+    fn only_the_instructions_the_model_must_see_are_seen() {
+        assert_eq!(seen(0xBF30, 0), Some(Seen::Sleep));
+        assert_eq!(seen(0xBF20, 0), Some(Seen::Sleep));
+        assert_eq!(seen(0xBF40, 0), Some(Seen::Sev));
+        assert_eq!(seen(0xB662, 0), Some(Seen::Unmask));
+        assert_eq!(seen(0xF380, 0x8810), Some(Seen::Unmask));
+        // MSR to APSR (0x00) and to CONTROL (0x14) unmask nothing; CPSID.
+        assert_eq!(seen(0xF380, 0x8800), None);
+        assert_eq!(seen(0xF380, 0x8814), None);
+        assert_eq!(seen(0xB672, 0), None);
+        assert_eq!(seen(0xBF00, 0), None);
+    }
 
     #[test]
     fn thumb_instructions_are_told_by_their_first_half_word() {

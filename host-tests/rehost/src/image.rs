@@ -137,28 +137,6 @@ impl Image {
         }
     }
 
-    /// Addresses of every half-word in the image for which `is` holds,
-    /// given it and the next half-word (instruction sites found by their
-    /// encoding; one that is really data or the middle of an instruction
-    /// is never executed, so a hook there never fires).
-    pub fn find_code(&self, is: impl Fn(u16, u16) -> bool) -> Vec<u64> {
-        let mut found = Vec::new();
-        for l in &self.loads {
-            let hws: Vec<u16> = l
-                .bytes
-                .chunks_exact(2)
-                .map(|c| u16::from_le_bytes([c[0], c[1]]))
-                .collect();
-            for (i, &hw) in hws.iter().enumerate() {
-                let next = hws.get(i + 1).copied().unwrap_or(0);
-                if is(hw, next) {
-                    found.push(l.addr + 2 * i as u64);
-                }
-            }
-        }
-        found
-    }
-
     /// The word at `addr` in the loaded image (the vector table's initial
     /// stack pointer and reset vector).
     pub fn word(&self, addr: u64) -> Option<u32> {

@@ -58,7 +58,48 @@ pub struct Machine {
     pub notes: Vec<String>,
 }
 
+/// What every byte of SRAM holds at power-on in the model.
+pub const POWER_ON_RAM: u8 = 0xA5;
+
 impl Machine {
+    /// The whole flash, every bank, as a probe would read it back.
+    pub fn flash(&self) -> Result<Vec<u8>, String> {
+        let (base, size) = self.uc.get_data().chip.flash;
+        self.uc
+            .mem_read_as_vec(u64::from(base), size as usize)
+            .map_err(|e| format!("unicorn: reading the flash: {e:?}"))
+    }
+
+    /// Replaces the whole flash (and its alias) with `bytes`, which must
+    /// be exactly the chip's flash size.
+    pub fn set_flash(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let chip = self.uc.get_data().chip;
+        if bytes.len() != chip.flash.1 as usize {
+            return Err(format!(
+                "{} bytes, but {} has {} bytes of flash",
+                bytes.len(),
+                chip.name,
+                chip.flash.1
+            ));
+        }
+        let e = |err| format!("unicorn: writing the flash: {err:?}");
+        let (base, size) = (u64::from(chip.flash.0), u64::from(chip.flash.1));
+        self.uc.mem_write(base, bytes).map_err(e)?;
+        let s = self.uc.get_data_mut();
+        s.code_changed.push((base, base + size));
+        if let Some((alias, _, size)) = chip.flash_alias {
+            self.uc
+                .mem_write(u64::from(alias), bytes.get(..size as usize).unwrap_or(&[]))
+                .map_err(e)?;
+            let alias = u64::from(alias);
+            self.uc
+                .get_data_mut()
+                .code_changed
+                .push((alias, alias + u64::from(size)));
+        }
+        crate::hooks::follow_code(&mut self.uc)
+    }
+
     /// Maps the chip, loads the image and resets the core.
     pub fn new(chip: Chip, image: Image, bus: Bus, clocks: Clocks) -> Result<Machine, String> {
         let image = Rc::new(image);
@@ -89,6 +130,8 @@ impl Machine {
             slept: 0,
             slices: 0,
             recent: std::collections::VecDeque::new(),
+            instruction_hooks: std::collections::BTreeMap::new(),
+            code_changed: Vec::new(),
         };
         fn e(what: &'static str) -> impl Fn(unicorn_engine::uc_error) -> String {
             move |err| format!("unicorn: {what}: {err:?}")
@@ -107,6 +150,14 @@ impl Machine {
             };
             uc.mem_map(u64::from(m.base), u64::from(m.size), prot)
                 .map_err(e(m.name))?;
+        }
+        // SRAM holds no defined value at power-on (unicorn's would be
+        // zeros): filled with a pattern, so that an image that reads
+        // memory it never wrote does not get a lucky zero. A system reset
+        // keeps it, as silicon does.
+        for m in chip.memories.iter().filter(|m| m.access == Access::Ram) {
+            uc.mem_write(u64::from(m.base), &vec![POWER_ON_RAM; m.size as usize])
+                .map_err(e("power-on RAM"))?;
         }
         // A chip's flash leaves the factory erased: all ones (RM0410
         // §3.3.5, RM0433 §4.3.9). A bootloader reads its state partition
@@ -296,6 +347,11 @@ impl Machine {
             let next = s.bus.next_event(s.now).unwrap_or(u64::MAX);
             s.deadline = deadline.min(next.max(s.now + 1)).min(s.now + slice);
             s.slices += 1;
+            if let Err(e) = crate::hooks::follow_code(&mut self.uc) {
+                let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
+                self.uc.get_data_mut().refuse(e, None, pc);
+                continue;
+            }
             let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
             let result = self.uc.emu_start(pc | 1, 0, 0, 0);
             let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);

@@ -98,6 +98,16 @@ struct Args {
     /// image must not wait for it unguarded (issue 42 #14).
     #[arg(long)]
     no_ref_clock: bool,
+    /// Start from this flash content (the whole flash, every bank, as
+    /// `--flash-out` wrote it) instead of an erased chip programmed with
+    /// the images: a board's state after an earlier run, such as an
+    /// update marked and not yet swapped in.
+    #[arg(long)]
+    flash_in: Option<PathBuf>,
+    /// Write the whole flash to this file when the run ends (a reset that
+    /// stops it included), as a probe would read it back.
+    #[arg(long)]
+    flash_out: Option<PathBuf>,
     /// Print the device's log (defmt over RTT) as `device:` lines.
     #[arg(long, default_value_t = true)]
     log: bool,
@@ -141,6 +151,12 @@ fn main() {
     let (bus, clocks) = rebuild();
     let mut m = Machine::new(chip, image, bus, clocks).unwrap_or_else(|e| fail(2, &e));
     m.rebuild = Some(rebuild);
+    if let Some(path) = &args.flash_in {
+        let bytes =
+            std::fs::read(path).unwrap_or_else(|e| fail(2, &format!("{}: {e}", path.display())));
+        m.set_flash(&bytes)
+            .unwrap_or_else(|e| fail(2, &format!("{}: {e}", path.display())));
+    }
     m.resets_left = args.resets;
     if args.no_ref_clock {
         m.uc.get_data_mut().shared.link.ref_clock = false;
@@ -303,6 +319,11 @@ fn main() {
         }
     };
     let elapsed = t.elapsed();
+    if let Some(path) = &args.flash_out {
+        let bytes = m.flash().unwrap_or_else(|e| fail(2, &e));
+        std::fs::write(path, bytes)
+            .unwrap_or_else(|e| fail(2, &format!("{}: {e}", path.display())));
+    }
     {
         let s = m.uc.get_data();
         if std::env::var_os("REHOST_TRACE").is_some() {

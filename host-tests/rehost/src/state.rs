@@ -64,6 +64,11 @@ pub struct State {
     pub reached: bool,
     /// Instructions in each translated block, by its address.
     pub block_sizes: std::collections::HashMap<u64, u64>,
+    /// The hooks on the instructions the model must see, by address, as
+    /// the memory now holds them ([`crate::hooks`]).
+    pub instruction_hooks: std::collections::BTreeMap<u64, unicorn_engine::UcHookId>,
+    /// Flash written since the hooks last followed it: (start, end).
+    pub code_changed: Vec<(u64, u64)>,
 }
 
 impl State {
