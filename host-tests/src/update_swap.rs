@@ -224,19 +224,6 @@ pub fn course(
         s.version,
         s.image.as_deref().unwrap_or("?")
     )))?;
-    if board == Board::H743 {
-        // Open (issue 43's note): swapped in on the rehosted H743, an
-        // image built for another layout never started: the engine's
-        // trace shows the bootloader's swap ending and the image's reset
-        // handler and `init` starting, then a memset running for
-        // billions of cycles (at the reset clock, before its first log
-        // line); the same image booted alone answers at once. Not yet
-        // explained, so the rollback is not run here.
-        say(
-            "skip C (another layout) on the H743: an open finding, such an image swapped in never starts (see hal-board's README)",
-        );
-        return Ok(());
-    }
     // 5. C: another layout, never OPERATING, rolled back by the watchdog.
     let (code, text) = update_device_command(http, &images.c_file, board.swap_wait().as_secs())?;
     step(
