@@ -57,9 +57,22 @@ pub(crate) fn bus_write(uc: &mut Unicorn<State>, addr: u64, size: usize, value: 
 /// time (the core waits for a flash operation in the bank it fetches
 /// from).
 fn settle(uc: &mut Unicorn<State>) {
+    let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0) as u32;
     let s = uc.get_data_mut();
+    if let Some(census) = &mut s.shared.flash.census {
+        for op in census.iter_mut().rev().take_while(|op| op.pc == 0) {
+            op.pc = pc;
+        }
+    }
     let writes = std::mem::take(&mut s.shared.program);
     let stall = std::mem::take(&mut s.shared.stall);
+    if s.shared.flash.cut {
+        // The power fails as the operation starts: nothing of it, nor
+        // anything else not yet in the array, gets there. The machine
+        // powers the chip off before the next block.
+        s.deadline = s.now;
+        return;
+    }
     s.now += stall;
     let alias = s.chip.flash_alias;
     for (addr, bytes) in writes {

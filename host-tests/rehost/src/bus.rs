@@ -34,6 +34,38 @@ pub struct Cx<'a> {
     /// Core cycles the access stalls the core for (a flash operation in
     /// the bank the core fetches from), added to virtual time after it.
     pub stall: &'a mut u64,
+    /// The flash operations (programs and erases) started since power-on
+    /// of the first run, and the power cut to make at one of them.
+    pub flash: &'a mut FlashOps,
+}
+
+/// The flash operations counted across the run (every power cycle and
+/// reset included), and the one the power fails at (`--power-cut N`).
+#[derive(Debug, Default, Clone)]
+pub struct FlashOps {
+    /// Operations started so far.
+    pub started: u64,
+    /// Cut the power as operation N (1-based) starts.
+    pub cut_at: Option<u64>,
+    /// The cut is due: the machine powers the chip off before the
+    /// operation changes the array.
+    pub cut: bool,
+    /// With `--flash-census`: each operation.
+    pub census: Option<Vec<CensusOp>>,
+}
+
+/// One flash operation, as `--flash-census` lists it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CensusOp {
+    /// Its number (1-based).
+    pub n: u64,
+    /// A sector erase (else a program).
+    pub erase: bool,
+    pub addr: u32,
+    pub len: u32,
+    /// The PC of the access that started it: which program did, the
+    /// bootloader or the image (0 until the machine fills it in).
+    pub pc: u32,
 }
 
 /// Why the chip resets: a system reset, which restarts the core and every
@@ -84,6 +116,7 @@ pub struct Shared {
     pub reset: Option<ResetCause>,
     pub program: Vec<(u32, Vec<u8>)>,
     pub stall: u64,
+    pub flash: FlashOps,
 }
 
 impl Shared {
@@ -99,6 +132,7 @@ impl Shared {
             reset: &mut self.reset,
             program: &mut self.program,
             stall: &mut self.stall,
+            flash: &mut self.flash,
         }
     }
 }

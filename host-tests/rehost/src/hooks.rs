@@ -165,19 +165,6 @@ pub fn thumb_instructions(code: &[u8]) -> u64 {
 mod tests {
     use super::*;
 
-    /// A flash holding a vector table (reset to a `b .` at 0x40) and
-    /// `code` half-words from offset 0x20.
-    fn flash_with(code: &[u16]) -> Vec<u8> {
-        let mut f = vec![0xFF; 2048 * 1024];
-        f[0..4].copy_from_slice(&0x2000_1000u32.to_le_bytes());
-        f[4..8].copy_from_slice(&0x0800_0041u32.to_le_bytes());
-        f[0x40..0x42].copy_from_slice(&0xE7FEu16.to_le_bytes());
-        for (i, hw) in code.iter().enumerate() {
-            f[0x20 + 2 * i..0x22 + 2 * i].copy_from_slice(&hw.to_le_bytes());
-        }
-        f
-    }
-
     fn hooked(m: &crate::machine::Machine) -> Vec<u64> {
         m.uc.get_data().instruction_hooks.keys().copied().collect()
     }
@@ -186,15 +173,7 @@ mod tests {
     fn the_instruction_hooks_follow_an_image_written_over_another() {
         // The old image: a WFI at 0x20. The new one: a NOP there, then
         // CPSIE i at 0x22, MSR BASEPRI, r0 at 0x24 and SEV at 0x28.
-        let old = flash_with(&[0xBF30]);
-        let mut image = Image::default();
-        image.loads.push(crate::image::Load {
-            addr: 0x0800_0000,
-            bytes: old[..0x100].to_vec(),
-        });
-        let (bus, clocks) = crate::h7::bus();
-        let mut m =
-            crate::machine::Machine::new(crate::chip::STM32H743ZI, image, bus, clocks).unwrap();
+        let mut m = crate::machine::testing::h743(&[0xBF30]);
         assert_eq!(hooked(&m), [0x0800_0020]);
         m.uc.get_data_mut().block_sizes.insert(0x0800_0020, 1);
         m.uc.get_data_mut().block_sizes.insert(0x0800_4000, 1);
@@ -216,7 +195,8 @@ mod tests {
         assert!(!sizes.contains_key(&0x0800_0020));
         assert!(sizes.contains_key(&0x0800_4000));
         // A whole flash put in (`--flash-in`) is followed the same way.
-        m.set_flash(&flash_with(&[0xBF20])).unwrap();
+        m.set_flash(&crate::machine::testing::flash_with(&[0xBF20]))
+            .unwrap();
         assert_eq!(hooked(&m), [0x0800_0020]);
     }
 

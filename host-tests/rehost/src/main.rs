@@ -70,7 +70,9 @@ struct Args {
     deterministic: bool,
     /// Drive the device with this many robot messages in virtual time
     /// (deterministic: implies `--deterministic`), from the GSI folder
-    /// `--gsi`; the run ends when the last cycle is over.
+    /// `--gsi`; the run ends when the last cycle is over. After a power
+    /// cut (`--power-cut`) the robot starts again at the next link up, as
+    /// a controller reconnects: the run is judged by that robot.
     #[arg(long)]
     robot: Option<u64>,
     /// The GSI folder the image was built from (for `--robot`).
@@ -108,6 +110,17 @@ struct Args {
     /// stops it included), as a probe would read it back.
     #[arg(long)]
     flash_out: Option<PathBuf>,
+    /// Cut the power as the Nth flash operation (a program or an erase,
+    /// counted from the start of this run, 1-based) starts: nothing of it
+    /// reaches the array; the chip powers up again with its SRAM lost and
+    /// its flash kept, and the run goes on (issue 43's power cuts).
+    #[arg(long)]
+    power_cut: Option<u64>,
+    /// Write every flash operation of the run to this file, one a line:
+    /// its number, `erase` or `program`, its address, its length and the
+    /// PC that started it (where to aim `--power-cut`).
+    #[arg(long)]
+    flash_census: Option<PathBuf>,
     /// Print the device's log (defmt over RTT) as `device:` lines.
     #[arg(long, default_value_t = true)]
     log: bool,
@@ -151,6 +164,13 @@ fn main() {
     let (bus, clocks) = rebuild();
     let mut m = Machine::new(chip, image, bus, clocks).unwrap_or_else(|e| fail(2, &e));
     m.rebuild = Some(rebuild);
+    {
+        let flash = &mut m.uc.get_data_mut().shared.flash;
+        flash.cut_at = args.power_cut;
+        if args.flash_census.is_some() {
+            flash.census = Some(Vec::new());
+        }
+    }
     if let Some(path) = &args.flash_in {
         let bytes =
             std::fs::read(path).unwrap_or_else(|e| fail(2, &format!("{}: {e}", path.display())));
@@ -227,7 +247,11 @@ fn main() {
         robot = Some((n, device));
         m.fine_slices = true;
     }
+    // The robot to start again after a power cut.
+    let robot_again = robot.clone();
     let mut driver: Option<rri_rehost::robot::Robot> = None;
+    // The robot's run is over: the exit status, once the flash is kept.
+    let mut robot_verdict = None;
     let mut corpus = None;
     let mut corpus_run: Option<rri_rehost::corpus::Corpus> = None;
     if let Some(path) = &args.corpus {
@@ -279,11 +303,18 @@ fn main() {
                     );
                 }
                 let ok = d.lost() == 0 && d.wrong == 0 && d.late == 0;
-                std::process::exit(if ok { 0 } else { 1 });
+                robot_verdict = Some(if ok { 0 } else { 1 });
+                break None;
             }
         }
         for note in m.take_notes() {
             println!("rehost: {note}");
+            if note.starts_with("power cut") {
+                if let Some(d) = driver.take() {
+                    println!("robot before the power cut: {}", d.summary());
+                }
+                robot = robot_again.clone();
+            }
         }
         for line in m.take_log() {
             println!("{}{line}", args.log_prefix);
@@ -319,10 +350,31 @@ fn main() {
         }
     };
     let elapsed = t.elapsed();
+    {
+        let flash = &m.uc.get_data().shared.flash;
+        eprintln!("rehost: {} flash operations", flash.started);
+        if let (Some(path), Some(census)) = (&args.flash_census, &flash.census) {
+            let text: String = census
+                .iter()
+                .map(|op| {
+                    let kind = if op.erase { "erase" } else { "program" };
+                    format!(
+                        "{} {kind} {:#010x} {} {:#010x}\n",
+                        op.n, op.addr, op.len, op.pc
+                    )
+                })
+                .collect();
+            std::fs::write(path, text)
+                .unwrap_or_else(|e| fail(2, &format!("{}: {e}", path.display())));
+        }
+    }
     if let Some(path) = &args.flash_out {
         let bytes = m.flash().unwrap_or_else(|e| fail(2, &e));
         std::fs::write(path, bytes)
             .unwrap_or_else(|e| fail(2, &format!("{}: {e}", path.display())));
+    }
+    if let Some(code) = robot_verdict {
+        std::process::exit(code);
     }
     {
         let s = m.uc.get_data();

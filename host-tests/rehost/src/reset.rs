@@ -18,17 +18,17 @@ use unicorn_engine::{RegisterARM, Unicorn};
 /// the vector table at the boot address, thread mode, privileged, nothing
 /// masked, no floating-point context (B1.5.5, "Reset behavior").
 pub fn reset_core(uc: &mut Unicorn<State>) -> Result<(), String> {
-    let (boot, sp, pc) = {
-        let s = uc.get_data();
-        let boot = u64::from(s.chip.boot);
-        (
-            boot,
-            s.image
-                .word(boot)
-                .ok_or("no vector table at the boot address")?,
-            s.image.word(boot + 4).ok_or("no reset vector")?,
-        )
+    // Read from the memory, not the image loaded at power-on: what the
+    // boot address holds now.
+    let boot = u64::from(uc.get_data().chip.boot);
+    let word = |uc: &Unicorn<State>, at: u64, what: &str| -> Result<u32, String> {
+        let b = uc
+            .mem_read_as_vec(at, 4)
+            .map_err(|e| format!("{what} at {at:#010x}: {e:?}"))?;
+        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     };
+    let sp = word(uc, boot, "no vector table")?;
+    let pc = word(uc, boot + 4, "no reset vector")?;
     if pc & 1 == 0 {
         return Err(format!(
             "the reset vector at {:#010x} ({pc:#010x}) is not a Thumb address: the core locks up",
@@ -50,6 +50,31 @@ pub fn reset_core(uc: &mut Unicorn<State>) -> Result<(), String> {
             .map_err(|e| format!("unicorn: writing {reg:?}: {e:?}"))?;
     }
     Ok(())
+}
+
+/// The power fails and comes back (`--power-cut N`): the chip starts as
+/// at power-on, every peripheral at its reset values (RCC's flags as
+/// after a power-on reset), the SRAM holding no trace of before (the
+/// power-on pattern again), the flash kept: it is what survives.
+pub fn power_cycle(uc: &mut Unicorn<State>, fresh: (Bus, Clocks)) -> Result<(), String> {
+    let memories = uc.get_data().chip.memories;
+    for m in memories
+        .iter()
+        .filter(|m| m.access == crate::chip::Access::Ram)
+    {
+        uc.mem_write(
+            u64::from(m.base),
+            &vec![crate::machine::POWER_ON_RAM; m.size as usize],
+        )
+        .map_err(|e| format!("unicorn: SRAM at power-on: {e:?}"))?;
+    }
+    let s = uc.get_data_mut();
+    s.shared.flash.cut = false;
+    s.shared.program.clear();
+    s.shared.stall = 0;
+    // No reset flags kept: the fresh RCC's are power-on's.
+    s.bus = Bus::default();
+    system_reset(uc, ResetCause::Software, fresh)
 }
 
 /// Restarts the chip for `cause` with the peripherals `fresh` (the chip's
@@ -82,4 +107,33 @@ pub fn system_reset(
     // The MPU is off: every page it had protected writable again.
     crate::mpu_enforce::sync(uc)?;
     reset_core(uc)
+}
+
+#[cfg(test)]
+mod tests {
+    use unicorn_engine::RegisterARM;
+
+    #[test]
+    fn a_power_cut_loses_the_sram_and_keeps_the_flash() {
+        let mut m = crate::machine::testing::h743(&[]);
+        m.uc.mem_write(0x2000_0000, &[1, 2, 3, 4]).unwrap();
+        m.uc.mem_write(0x2400_0000, &[5; 4]).unwrap();
+        let mut flash = crate::machine::testing::flash_with(&[0xBF00]);
+        flash[0x10_0000..0x10_0004].copy_from_slice(&[0x12, 0x34, 0x56, 0x78]);
+        m.set_flash(&flash).unwrap();
+        m.uc.reg_write(RegisterARM::PC, 0x0800_0020).unwrap();
+        m.uc.get_data_mut().shared.flash.cut = true;
+        super::power_cycle(&mut m.uc, crate::h7::bus()).unwrap();
+        let p = crate::machine::POWER_ON_RAM;
+        assert_eq!(m.uc.mem_read_as_vec(0x2000_0000, 4).unwrap(), [p; 4]);
+        assert_eq!(m.uc.mem_read_as_vec(0x2400_0000, 4).unwrap(), [p; 4]);
+        assert_eq!(
+            m.uc.mem_read_as_vec(0x0810_0000, 4).unwrap(),
+            [0x12, 0x34, 0x56, 0x78]
+        );
+        // The core starts again from the vector table the flash holds.
+        assert_eq!(m.uc.reg_read(RegisterARM::PC).unwrap(), 0x0800_0040);
+        assert_eq!(m.uc.reg_read(RegisterARM::MSP).unwrap(), 0x2000_1000);
+        assert!(!m.uc.get_data().shared.flash.cut);
+    }
 }

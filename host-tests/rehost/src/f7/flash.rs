@@ -328,51 +328,24 @@ impl Flash {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bus::Shared;
 
-    struct Bench {
-        flash: Flash,
-        shared: Shared,
-        now: u64,
+    type Bench = crate::flash_array::testing::Bench<Flash>;
+
+    fn bench() -> Bench {
+        Bench::new(Flash::new(), 16_000_000)
     }
 
-    impl Bench {
-        fn new() -> Bench {
-            let mut shared = Shared::default();
-            shared.clocks.core_hz = 16_000_000;
-            Bench {
-                flash: Flash::new(),
-                shared,
-                now: 0,
-            }
-        }
-        fn w(&mut self, offset: u32, value: u32) -> Result<(), Refusal> {
-            let mut cx = self.shared.cx(self.now, crate::bus::no_dma());
-            self.flash.advance(&mut cx)?;
-            self.flash.write(offset, 4, value, &mut cx)
-        }
-        fn r(&mut self, offset: u32) -> u32 {
-            let mut cx = self.shared.cx(self.now, crate::bus::no_dma());
-            self.flash.advance(&mut cx).unwrap();
-            self.flash.read(offset, 4, &mut cx).unwrap()
-        }
-        fn store(&mut self, addr: u32, size: u32, value: u64, old: &[u8]) -> Result<(), Refusal> {
-            let mut cx = self.shared.cx(self.now, crate::bus::no_dma());
-            self.flash.store(addr, size, value, old, &mut cx).unwrap()
-        }
-        fn unlock(&mut self) {
-            self.w(KEYR, KEY1).unwrap();
-            self.w(KEYR, KEY2).unwrap();
-        }
+    fn unlock(b: &mut Bench) {
+        b.unlock_at(KEYR, [KEY1, KEY2]);
     }
 
     #[test]
     fn the_key_sequence_unlocks_and_a_wrong_key_is_refused() {
-        let mut b = Bench::new();
+        let mut b = bench();
         assert_ne!(b.r(CR) & CR_LOCK, 0);
         let e = b.w(CR, CR_PG).unwrap_err();
         assert!(e.contains("while locked"), "{e}");
-        b.unlock();
+        unlock(&mut b);
         assert_eq!(b.r(CR) & CR_LOCK, 0);
         b.w(CR, CR_LOCK).unwrap();
         assert_ne!(b.r(CR) & CR_LOCK, 0);
@@ -382,8 +355,8 @@ mod tests {
 
     #[test]
     fn a_word_is_programmed_at_x32_and_a_wrong_size_is_flagged() {
-        let mut b = Bench::new();
-        b.unlock();
+        let mut b = bench();
+        unlock(&mut b);
         b.w(CR, CR_PG | (2 << 8)).unwrap();
         b.store(0x0808_0000, 4, 0x1234_5678, &[0xFF; 4]).unwrap();
         assert_eq!(
@@ -406,10 +379,10 @@ mod tests {
 
     #[test]
     fn stores_without_pg_and_over_cleared_bits_are_refused() {
-        let mut b = Bench::new();
+        let mut b = bench();
         let e = b.store(0x0808_0000, 4, 0, &[0xFF; 4]).unwrap_err();
         assert!(e.contains("without FLASH_CR.PG"), "{e}");
-        b.unlock();
+        unlock(&mut b);
         b.w(CR, CR_PG | (2 << 8)).unwrap();
         // 0x0F over 0xF0: sets bits, which only an erase does.
         let e = b
@@ -423,8 +396,8 @@ mod tests {
 
     #[test]
     fn a_sector_erase_takes_its_time_and_leaves_all_ones() {
-        let mut b = Bench::new();
-        b.unlock();
+        let mut b = bench();
+        unlock(&mut b);
         b.w(CR, CR_SER | (6 << 3)).unwrap();
         b.w(CR, CR_SER | (6 << 3) | CR_STRT).unwrap();
         assert_ne!(b.r(SR) & SR_BSY, 0);

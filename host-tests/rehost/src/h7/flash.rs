@@ -366,44 +366,20 @@ impl Peripheral for Flash {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bus::Shared;
 
-    struct Bench {
-        flash: Flash,
-        shared: Shared,
-        now: u64,
+    type Bench = crate::flash_array::testing::Bench<Flash>;
+
+    fn bench() -> Bench {
+        Bench::new(Flash::new(), 64_000_000)
     }
 
-    impl Bench {
-        fn new() -> Bench {
-            let mut shared = Shared::default();
-            shared.clocks.core_hz = 64_000_000;
-            Bench {
-                flash: Flash::new(),
-                shared,
-                now: 0,
-            }
-        }
-        fn w(&mut self, offset: u32, value: u32) -> Result<(), Refusal> {
-            let mut cx = self.shared.cx(self.now, crate::bus::no_dma());
-            self.flash.advance(&mut cx)?;
-            self.flash.write(offset, 4, value, &mut cx)
-        }
-        fn r(&mut self, offset: u32) -> u32 {
-            let mut cx = self.shared.cx(self.now, crate::bus::no_dma());
-            self.flash.advance(&mut cx).unwrap();
-            self.flash.read(offset, 4, &mut cx).unwrap()
-        }
-        fn store(&mut self, addr: u32, value: u32) -> Result<(), Refusal> {
-            let mut cx = self.shared.cx(self.now, crate::bus::no_dma());
-            self.flash
-                .store(addr, 4, u64::from(value), &[0xFF; 4], &mut cx)
-                .unwrap()
-        }
-        fn unlock(&mut self, bank: u32) {
-            self.w(KEYR + 0x100 * bank, KEY1).unwrap();
-            self.w(KEYR + 0x100 * bank, KEY2).unwrap();
-        }
+    fn unlock(b: &mut Bench, bank: u32) {
+        b.unlock_at(KEYR + 0x100 * bank, [KEY1, KEY2]);
+    }
+
+    /// A word stored into erased flash.
+    fn store(b: &mut Bench, addr: u32, value: u32) -> Result<(), Refusal> {
+        b.store(addr, 4, u64::from(value), &[0xFF; 4])
     }
 
     const SR2: u32 = SR + 0x100;
@@ -411,15 +387,15 @@ mod tests {
 
     #[test]
     fn eight_words_fill_the_buffer_and_program_one_flash_word() {
-        let mut b = Bench::new();
-        b.unlock(1);
+        let mut b = bench();
+        unlock(&mut b, 1);
         b.w(CR2, CR_PG | (2 << 4)).unwrap();
         for i in 0..7 {
-            b.store(0x0810_0000 + 4 * i, i).unwrap();
+            store(&mut b, 0x0810_0000 + 4 * i, i).unwrap();
         }
         assert!(b.shared.program.is_empty());
         assert_eq!(b.r(SR2) & (SR_WBNE | SR_QW | SR_BSY), SR_WBNE);
-        b.store(0x0810_001C, 7).unwrap();
+        store(&mut b, 0x0810_001C, 7).unwrap();
         assert_eq!(b.shared.program.len(), 1);
         assert_eq!(b.shared.program[0].0, 0x0810_0000);
         assert_eq!(&b.shared.program[0].1[..8], &[0, 0, 0, 0, 1, 0, 0, 0]);
@@ -434,25 +410,25 @@ mod tests {
 
     #[test]
     fn another_flash_word_before_the_buffer_is_full_is_an_inconsistency() {
-        let mut b = Bench::new();
-        b.unlock(1);
+        let mut b = bench();
+        unlock(&mut b, 1);
         b.w(CR2, CR_PG).unwrap();
-        b.store(0x0810_0000, 1).unwrap();
-        b.store(0x0810_0020, 2).unwrap();
+        store(&mut b, 0x0810_0000, 1).unwrap();
+        store(&mut b, 0x0810_0020, 2).unwrap();
         assert_ne!(b.r(SR2) & SR_INCERR, 0);
         assert!(b.shared.program.is_empty());
     }
 
     #[test]
     fn locked_banks_unerased_words_and_stores_without_pg_are_refused() {
-        let mut b = Bench::new();
+        let mut b = bench();
         let e = b.w(CR, CR_PG).unwrap_err();
         assert!(e.contains("while locked"), "{e}");
-        b.unlock(0);
+        unlock(&mut b, 0);
         // Bank 2 is still locked.
-        let e = b.store(0x0810_0000, 0).unwrap_err();
+        let e = store(&mut b, 0x0810_0000, 0).unwrap_err();
         assert!(e.contains("bank 2") && e.contains("locked"), "{e}");
-        let e = b.store(0x0804_0000, 0).unwrap_err();
+        let e = store(&mut b, 0x0804_0000, 0).unwrap_err();
         assert!(e.contains("without FLASH_CR1.PG"), "{e}");
         b.w(CR, CR_PG).unwrap();
         let mut cx = b.shared.cx(0, crate::bus::no_dma());
@@ -468,9 +444,9 @@ mod tests {
 
     #[test]
     fn a_sector_erase_in_bank_1_stalls_the_core_and_in_bank_2_does_not() {
-        let mut b = Bench::new();
-        b.unlock(0);
-        b.unlock(1);
+        let mut b = bench();
+        unlock(&mut b, 0);
+        unlock(&mut b, 1);
         b.w(CR2, CR_SER | (3 << 8)).unwrap();
         b.w(CR2, CR_SER | (3 << 8) | CR_START).unwrap();
         assert_eq!(b.shared.stall, 0);
