@@ -31,6 +31,7 @@ pub mod hil;
 pub mod http_attack;
 pub mod mcu_target;
 pub mod memory_map;
+pub mod power_cut;
 pub mod probe;
 pub mod qemu;
 pub mod qemu_bench;

@@ -45,7 +45,12 @@ pub type Step = Result<String, String>;
 
 /// The robot for `cycles` against the device; its summary's answered and
 /// sent counts.
-fn robot(setup: &Setup, to: SocketAddr, cycles: u64, first_id: u32) -> Result<(u64, u64), String> {
+pub(crate) fn robot(
+    setup: &Setup,
+    to: SocketAddr,
+    cycles: u64,
+    first_id: u32,
+) -> Result<(u64, u64), String> {
     let mut opts = RobotOptions::new(setup.gsi.clone(), to);
     opts.device = setup.device_name.clone();
     opts.cycles = cycles;
@@ -69,7 +74,7 @@ fn all_answered(what: &str, got: Result<(u64, u64), String>) -> Step {
 }
 
 /// Polls `/status.json` until `done` holds, up to `wait`.
-fn until(
+pub(crate) fn until(
     http: SocketAddr,
     wait: Duration,
     done: &dyn Fn(&Status) -> bool,

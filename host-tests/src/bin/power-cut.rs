@@ -1,0 +1,72 @@
+//! `cargo power-cut [-- --all]`: the power cut at a flash operation of an
+//! update on the rehosted NUCLEO-H743ZI2 (issue 43), and the board after
+//! it: the upload's cut must leave the old image answering and taking
+//! the file again, the swap's must be finished by the bootloader and the
+//! new image answer. See `host_tests::power_cut`.
+//!
+//! Exit status: 0 when every cut ended so, 1 when one did not, 2 when the
+//! images could not be built or the censuses not made.
+
+use clap::{Parser, ValueEnum};
+use host_tests::{power_cut, setup::Setup};
+use std::process::ExitCode;
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum Which {
+    /// The NUCLEO-H743ZI2 on the model of its chip (`cargo rehost`).
+    H743,
+    /// The NUCLEO-F767ZI: refused (it takes no update yet).
+    F767,
+}
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "cargo power-cut",
+    about = "Cut the power at flash operations of an update on a rehosted NUCLEO, and check the board after each"
+)]
+struct Args {
+    /// The board (only the H743 takes updates).
+    #[arg(long, value_enum, default_value_t = Which::H743)]
+    board: Which,
+    /// Cut at the first and the last operation of every run of one kind
+    /// in one partition (about 80 cuts, an hour or more), not only at the
+    /// few chosen ones.
+    #[arg(long)]
+    all: bool,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    if let Which::F767 = args.board {
+        eprintln!(
+            "error: the NUCLEO-F767ZI takes no update yet (see cargo update-swap -- --board f767)"
+        );
+        return ExitCode::from(2);
+    }
+    if let Err(e) = host_tests::rehost::ensure_build_tools(&mut std::io::stdout()) {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
+    let setup = match Setup::new(false) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    match power_cut::run_all(&setup, args.all) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+#[cfg(test)]
+mod command_line {
+    #[test]
+    fn is_consistent() {
+        <super::Args as clap::CommandFactory>::command().debug_assert();
+    }
+}

@@ -1,0 +1,636 @@
+//! `cargo power-cut` (issue 43): the power cut at a flash operation of an
+//! update, on the rehosted NUCLEO-H743ZI2, and what the board does when it
+//! comes back.
+//!
+//! The engine counts every flash operation (a flash-word program, a
+//! sector erase) and with `--power-cut N` cuts the power as the Nth
+//! starts: nothing of it reaches the array, the chip powers up again with
+//! its SRAM lost and its flash kept. Two censuses find the operations:
+//!
+//! - **the upload**: image A runs, B is sent with `PUT /firmware`; the
+//!   device erases and programs the update partition, then marks the
+//!   state partition, and restarts into the swap (the engine stops there,
+//!   keeping the flash: B marked);
+//! - **the swap**: from that flash the bootloader swaps B in page by page
+//!   (recording its progress in the state partition), then B boots,
+//!   answers the robot and confirms itself at OPERATING.
+//!
+//! Each cut is then made in a run of its own, and judged by what the
+//! issue asks: the board comes back running a whole, signed image and
+//! answers its controller. More precisely, after a cut in the upload A
+//! must come back, answer the robot and take B again; after a cut in the
+//! swap the bootloader must finish it and B answer; after a cut in B's
+//! confirmation B or A (brought back: B never finished confirming
+//! itself) must answer. By default a few operations are cut, where a
+//! design usually breaks (the state partition's erase while marking, the
+//! first erase of the active partition, a half-written active page, the
+//! swap's last progress mark, the confirmation); `--all` cuts the first
+//! and the last operation of every run of operations of one kind, in one
+//! partition, by one program.
+
+use crate::device::Device;
+use crate::setup::Setup;
+use crate::update_device;
+use crate::update_swap::{self, Board, Images};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// One flash operation of a census.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Op {
+    pub n: u64,
+    pub erase: bool,
+    pub addr: u32,
+    pub len: u32,
+    /// The PC of the access that started it.
+    pub pc: u32,
+}
+
+/// Reads the engine's `--flash-census` file: `N erase|program ADDR LEN PC`
+/// a line.
+pub fn parse_census(text: &str) -> Result<Vec<Op>, String> {
+    text.lines()
+        .enumerate()
+        .map(|(i, line)| {
+            let bad = || format!("census line {}: {line:?}", i + 1);
+            let f: Vec<&str> = line.split_whitespace().collect();
+            let [n, kind, addr, len, pc] = f[..] else {
+                return Err(bad());
+            };
+            let hex =
+                |s: &str| u32::from_str_radix(s.trim_start_matches("0x"), 16).map_err(|_| bad());
+            Ok(Op {
+                n: n.parse().map_err(|_| bad())?,
+                erase: match kind {
+                    "erase" => true,
+                    "program" => false,
+                    _ => return Err(bad()),
+                },
+                addr: hex(addr)?,
+                len: len.parse().map_err(|_| bad())?,
+                pc: hex(pc)?,
+            })
+        })
+        .collect()
+}
+
+/// Where a cut falls, by what the board is doing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// The running image takes B (the upload's census).
+    Upload,
+    /// The bootloader swaps B in.
+    Swap,
+    /// B, on trial, confirms itself at OPERATING.
+    Confirm,
+}
+
+impl Phase {
+    fn name(self) -> &'static str {
+        match self {
+            Phase::Upload => "upload",
+            Phase::Swap => "swap",
+            Phase::Confirm => "confirmation",
+        }
+    }
+}
+
+/// Operations of one kind in one partition by one program (the
+/// bootloader or the image), one after another.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Run {
+    pub first: u64,
+    pub last: u64,
+    pub erase: bool,
+    pub partition: &'static str,
+    /// The bootloader started them (else the image).
+    pub by_bootloader: bool,
+}
+
+impl Run {
+    fn what(&self) -> String {
+        let kind = if self.erase { "erase" } else { "program" };
+        format!("{kind} {}", self.partition)
+    }
+}
+
+/// The partition of `partitions` (name, start, length) holding `addr`.
+fn partition_of(partitions: &[(&'static str, u32, u32)], addr: u32) -> &'static str {
+    partitions
+        .iter()
+        .find(|(_, start, len)| addr >= *start && addr - start < *len)
+        .map(|p| p.0)
+        .unwrap_or("outside every partition")
+}
+
+/// The census cut into runs.
+pub fn runs(ops: &[Op], partitions: &[(&'static str, u32, u32)]) -> Vec<Run> {
+    let mut runs: Vec<Run> = Vec::new();
+    for op in ops {
+        let partition = partition_of(partitions, op.addr);
+        let by_bootloader = partition_of(partitions, op.pc) == "bootloader";
+        match runs.last_mut() {
+            Some(r)
+                if r.erase == op.erase
+                    && r.partition == partition
+                    && r.by_bootloader == by_bootloader =>
+            {
+                r.last = op.n
+            }
+            _ => runs.push(Run {
+                first: op.n,
+                last: op.n,
+                erase: op.erase,
+                partition,
+                by_bootloader,
+            }),
+        }
+    }
+    runs
+}
+
+/// Where to cut in `phase` (in the upload's census for `Upload`, the
+/// swap's for the others): every run's first and last operation (`all`),
+/// else a few chosen by what they do. Each with what it is.
+pub fn points(runs: &[Run], phase: Phase, all: bool) -> Vec<(u64, String)> {
+    let mine: Vec<&Run> = runs
+        .iter()
+        .filter(|r| r.by_bootloader == (phase == Phase::Swap))
+        .collect();
+    let first = |erase: bool, partition: &str| {
+        mine.iter()
+            .find(|r| r.erase == erase && r.partition == partition)
+            .copied()
+    };
+    let mut at: Vec<(u64, String)> = Vec::new();
+    if all {
+        for r in &mine {
+            at.push((r.first, format!("the first {}", r.what())));
+            if r.last != r.first {
+                at.push((r.last, format!("the last {}", r.what())));
+            }
+        }
+    } else {
+        match phase {
+            Phase::Upload => {
+                // Marking: the state partition erased, the mark not yet
+                // written.
+                if let Some(r) = first(true, "state") {
+                    at.push((r.first, "the state partition's erase as B is marked".into()));
+                }
+            }
+            Phase::Swap => {
+                if let Some(r) = first(true, "active") {
+                    at.push((r.first, "the first erase of the active partition".into()));
+                }
+                if let Some(r) = first(false, "active") {
+                    at.push((
+                        r.first + (r.last - r.first) / 2,
+                        "half-way through the first active page's program".into(),
+                    ));
+                }
+                if let Some(r) = mine
+                    .iter()
+                    .rev()
+                    .find(|r| !r.erase && r.partition == "state")
+                {
+                    at.push((r.last, "the swap's last mark in the state partition".into()));
+                }
+            }
+            Phase::Confirm => {
+                if let Some(r) = mine.first() {
+                    at.push((
+                        r.first,
+                        format!("the confirmation's first operation, {}", r.what()),
+                    ));
+                }
+                if let Some(r) = first(true, "state") {
+                    at.push((
+                        r.first,
+                        "the confirmation's erase of the state partition".into(),
+                    ));
+                }
+            }
+        }
+    }
+    at.sort_by_key(|p| p.0);
+    at.dedup_by_key(|p| p.0);
+    at
+}
+
+/// Robot messages after the swap, in virtual time: 4 s at the 4 ms
+/// cycle, long enough for B's confirmation at OPERATING (its 2 s erase
+/// of the state partition, then its mark) to be in the swap's census.
+const ROBOT: u64 = 1000;
+
+/// What a cut ended in: one line, `Err` when the board did not come back
+/// as it must.
+pub type Verdict = Result<String, String>;
+
+/// Where this command keeps its files.
+fn work_dir() -> Result<PathBuf, String> {
+    let dir = crate::qemu::target_dir().join("power-cut");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    Ok(dir)
+}
+
+/// `file` sent with `PUT /firmware`: the status and the device's answer.
+fn send(http: std::net::SocketAddr, file: &Path) -> Result<(u16, String), String> {
+    let bytes = std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    let r = update_device::upload(
+        &format!("http://{http}/"),
+        &bytes,
+        bytes.len(),
+        false,
+        &mut |_| {},
+    )?;
+    Ok((r.status, update_device::answer(&r)))
+}
+
+/// The upload's census: A boots, B is sent, the device restarts into the
+/// swap and the engine stops there (no reset allowed), keeping the flash.
+fn upload_census(setup: &Setup, images: &Images, dir: &Path) -> Result<Vec<Op>, String> {
+    let (census, marked) = (dir.join("upload.census"), dir.join("marked.flash"));
+    let _ = std::fs::remove_file(&census);
+    let (census_arg, marked_arg) = (census.display().to_string(), marked.display().to_string());
+    let extra = [
+        "--flash-census",
+        &census_arg,
+        "--flash-out",
+        &marked_arg,
+        "--resets",
+        "0",
+    ];
+    let (mut d, _to, http) = crate::rehost::boot_elf("h743", setup, &images.a, &extra)?;
+    for (needle, within) in crate::rehost::ready() {
+        d.wait_for(needle, within)?;
+    }
+    let http = http.ok_or("the board's diagnostics are not forwarded")?;
+    let (status, said) = send(http, &images.b_file)?;
+    if !(status == 200 && said.contains("checked and marked")) {
+        return Err(format!("B's upload: {status} {said}"));
+    }
+    let end = Instant::now() + Duration::from_secs(120);
+    while d.stopped().is_none() {
+        if Instant::now() > end {
+            return Err("the device did not restart into the swap within 120 s".into());
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let text =
+        std::fs::read_to_string(&census).map_err(|e| format!("{}: {e}", census.display()))?;
+    parse_census(&text)
+}
+
+/// A deterministic run from the marked flash: the bootloader's swap,
+/// then B and the engine's robot ([`ROBOT`] messages in virtual time,
+/// started again after a cut). With `cut`, the power fails at that operation. The
+/// engine's exit status and output.
+fn swap_run(
+    setup: &Setup,
+    images: &Images,
+    dir: &Path,
+    cut: Option<u64>,
+    census: Option<&Path>,
+) -> Result<(i32, String), String> {
+    let engine = crate::rehost::build_engine()?;
+    let boot = crate::rehost::boot_image("h743")?;
+    let mut cmd = Command::new(engine);
+    cmd.current_dir(crate::workspace())
+        .args(["--board", "h743", "--elf"])
+        .arg(&images.a)
+        .arg("--boot")
+        .arg(&boot)
+        .arg("--flash-in")
+        .arg(dir.join("marked.flash"))
+        .arg("--device")
+        .arg(format!(
+            "{}:{}",
+            setup.device.network.address, setup.device.channel.port
+        ))
+        .arg("--gsi")
+        .arg(&setup.gsi)
+        .args(["--robot", &ROBOT.to_string(), "--log-prefix", "device: "])
+        // A swap and a swap back at the reset clock are about 6e9
+        // cycles: a bootloader that never starts an image ends the run
+        // here, not never.
+        .args(["--cycles", "40000000000"]);
+    if let Some(n) = cut {
+        cmd.args(["--power-cut", &n.to_string()]);
+    }
+    if let Some(c) = census {
+        cmd.arg("--flash-census").arg(c);
+    }
+    let out = cmd
+        .output()
+        .map_err(|e| format!("the rehosting engine: {e}"))?;
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    Ok((out.status.code().unwrap_or(-1), text))
+}
+
+/// The version the last start logged after the cut (`rri-sensor X on`).
+fn version_after_cut(log: &str) -> Option<String> {
+    let after = &log[log.find("rehost: power cut at flash operation")?..];
+    after
+        .lines()
+        .filter_map(|l| {
+            let i = l.find("rri-sensor ")?;
+            let rest = &l[i + "rri-sensor ".len()..];
+            rest.split_whitespace()
+                .next()
+                .filter(|_| rest.contains(" on "))
+        })
+        .next_back()
+        .map(String::from)
+}
+
+/// The last lines of a log, indented, for a failed verdict.
+fn tail<'a>(lines: impl DoubleEndedIterator<Item = &'a str>) -> String {
+    let last: Vec<&str> = lines.rev().take(12).collect();
+    last.into_iter().rev().collect::<Vec<_>>().join("\n  ")
+}
+
+/// A cut in the swap (the bootloader must finish it and B answer) or in
+/// B's confirmation (B, or A brought back because B never finished
+/// confirming itself, must answer).
+fn swap_cut(
+    setup: &Setup,
+    images: &Images,
+    dir: &Path,
+    phase: Phase,
+    n: u64,
+    what: &str,
+) -> Verdict {
+    let (code, log) = swap_run(setup, images, dir, Some(n), None)?;
+    let robot = log
+        .lines()
+        .rev()
+        .find(|l| l.starts_with("robot (virtual time"))
+        .unwrap_or("no robot summary")
+        .to_string();
+    let version = version_after_cut(&log);
+    let line = format!(
+        "{}, operation {n} ({what}): back running {}; {robot}",
+        phase.name(),
+        version.as_deref().unwrap_or("nothing")
+    );
+    let is = |v: &str| version.as_deref() == Some(v);
+    let whole = match phase {
+        Phase::Confirm => is(&images.a_version) || is(&images.b_version),
+        _ => is(&images.b_version),
+    };
+    let all = format!("sent {ROBOT} answered {ROBOT} late 0 lost 0 wrong 0");
+    if code == 0 && whole && robot.contains(&all) {
+        Ok(line)
+    } else {
+        Err(format!(
+            "{line} (exit {code}); the run's last lines:\n  {}",
+            tail(log.lines())
+        ))
+    }
+}
+
+/// A cut in the upload: A must come back, answer the robot, and take B
+/// again.
+fn upload_cut(setup: &Setup, images: &Images, n: u64, what: &str) -> Verdict {
+    let cut = n.to_string();
+    let (mut d, to, http) = crate::rehost::boot_elf(
+        "h743",
+        setup,
+        &images.a,
+        &["--power-cut", &cut, "--resets", "2"],
+    )?;
+    for (needle, within) in crate::rehost::ready() {
+        d.wait_for(needle, within)?;
+    }
+    let http = http.ok_or("the board's diagnostics are not forwarded")?;
+    // The power fails during the upload: its connection dies with it.
+    let first = send(http, &images.b_file);
+    d.wait_for(
+        &format!("power cut at flash operation {n}"),
+        Duration::from_secs(120),
+    )?;
+    let s = update_swap::until(http, Duration::from_secs(120), &|s| !s.version.is_empty())?;
+    let answered = update_swap::robot(setup, to, 300, 50_000);
+    let again = send(http, &images.b_file);
+    let log = Box::new(d).stop();
+    let line = format!(
+        "upload, operation {n} ({what}): the cut upload {}; back running {} (last reset: {}); {}; B sent again: {}",
+        match &first {
+            Ok((status, said)) => format!("answered {status} {said}"),
+            Err(e) => format!("got no answer ({})", e.lines().next().unwrap_or("")),
+        },
+        s.version,
+        s.last_reset.as_deref().unwrap_or("?"),
+        match &answered {
+            Ok((a, sent)) => format!("{a} of {sent} robot messages answered"),
+            Err(e) => format!("the robot: {e}"),
+        },
+        match &again {
+            Ok((status, said)) => format!("{status} {said}"),
+            Err(e) => e.clone(),
+        }
+    );
+    let ok = s.version == images.a_version
+        && matches!(answered, Ok((a, sent)) if a == sent && sent > 0)
+        && matches!(&again, Ok((200, said)) if said.contains("checked and marked"));
+    if ok {
+        Ok(line)
+    } else {
+        Err(format!(
+            "{line}; the device's last lines:\n  {}",
+            tail(log.iter().map(|l| l.as_str()))
+        ))
+    }
+}
+
+/// The census's runs, one line each.
+fn summary(ops: &[Op], runs: &[Run]) {
+    println!("   {} flash operations in {} runs:", ops.len(), runs.len());
+    for r in runs {
+        let by = if r.by_bootloader {
+            "bootloader"
+        } else {
+            "image"
+        };
+        println!("   {:>6}-{:<6} {} (by the {by})", r.first, r.last, r.what());
+    }
+}
+
+/// Both censuses, then every cut; each verdict printed as it comes. `Err`
+/// when a cut did not end as it must (every cut is still made).
+pub fn run_all(setup: &Setup, all: bool) -> Result<(), String> {
+    let images = update_swap::build(setup, Board::H743)?;
+    let dir = work_dir()?;
+    let map = crate::boards::flash_map(&crate::boards::BOARDS[1])?;
+    let partitions = crate::flash_map::partitions(&map)?;
+    println!(
+        "== census of the upload: A ({}) boots, B ({}) is sent and marked",
+        images.a_version, images.b_version
+    );
+    let upload = upload_census(setup, &images, &dir)?;
+    let upload_runs = runs(&upload, &partitions);
+    summary(&upload, &upload_runs);
+    println!(
+        "== census of the swap: from that flash, the bootloader swaps B in, B answers the robot and confirms itself"
+    );
+    let census = dir.join("swap.census");
+    let (code, log) = swap_run(setup, &images, &dir, None, Some(&census))?;
+    if code != 0 {
+        return Err(format!(
+            "the swap without a cut failed (exit {code}):\n  {}",
+            tail(log.lines())
+        ));
+    }
+    let text =
+        std::fs::read_to_string(&census).map_err(|e| format!("{}: {e}", census.display()))?;
+    let swap = parse_census(&text)?;
+    let swap_runs = runs(&swap, &partitions);
+    summary(&swap, &swap_runs);
+    let (mut cuts, mut failed) = (0, 0);
+    let mut judge = |verdict: Verdict| {
+        cuts += 1;
+        match verdict {
+            Ok(line) => println!("power-cut: ok   {line}"),
+            Err(line) => {
+                failed += 1;
+                println!("power-cut: FAIL {line}");
+            }
+        }
+    };
+    for (n, what) in points(&upload_runs, Phase::Upload, all) {
+        judge(upload_cut(setup, &images, n, &what));
+    }
+    for phase in [Phase::Swap, Phase::Confirm] {
+        for (n, what) in points(&swap_runs, phase, all) {
+            judge(swap_cut(setup, &images, &dir, phase, n, &what));
+        }
+    }
+    if failed == 0 {
+        println!(
+            "power-cut: all {cuts} cuts ended on a board running a whole, signed image that answers its robot"
+        );
+        Ok(())
+    } else {
+        Err(format!("{failed} of {cuts} cuts did not end as they must"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PARTS: [(&str, u32, u32); 4] = [
+        ("bootloader", 0x0800_0000, 0x2_0000),
+        ("active", 0x0802_0000, 0xC_0000),
+        ("update", 0x0810_0000, 0xE_0000),
+        ("state", 0x081E_0000, 0x2_0000),
+    ];
+
+    /// A census of `(kind, address, by the image?)`, numbered from 1.
+    fn census(ops: &[(&str, u32, bool)]) -> Vec<Op> {
+        let text: String = ops
+            .iter()
+            .enumerate()
+            .map(|(i, (kind, addr, image))| {
+                let pc = if *image { 0x0803_0000 } else { 0x0800_1000 };
+                format!("{} {kind} {addr:#x} 32 {pc:#x}\n", i + 1)
+            })
+            .collect();
+        parse_census(&text).unwrap()
+    }
+
+    #[test]
+    fn a_census_is_read_and_a_bad_line_named() {
+        let ops = parse_census("1 erase 0x08100000 131072 0x0802a000\n").unwrap();
+        assert_eq!(
+            ops[0],
+            Op {
+                n: 1,
+                erase: true,
+                addr: 0x0810_0000,
+                len: 131_072,
+                pc: 0x0802_a000
+            }
+        );
+        let e = parse_census("1 erase 0x08100000 131072 0x0\n2 write 0x0 32 0x0\n").unwrap_err();
+        assert!(e.contains("line 2"), "{e}");
+        assert!(parse_census("1 erase 0x08100000 131072\n").is_err());
+    }
+
+    #[test]
+    fn operations_are_cut_into_runs_by_kind_partition_and_program() {
+        let ops = census(&[
+            ("erase", 0x0810_0000, true),
+            ("program", 0x0810_0000, true),
+            ("program", 0x0810_0020, true),
+            ("program", 0x081E_0020, true),
+            ("erase", 0x081E_0000, true),
+            ("program", 0x081F_FFE0, true),
+            ("program", 0x081F_FFC0, false),
+        ]);
+        let r = runs(&ops, &PARTS);
+        let summary: Vec<(u64, u64, String, bool)> = r
+            .iter()
+            .map(|r| (r.first, r.last, r.what(), r.by_bootloader))
+            .collect();
+        assert_eq!(
+            summary,
+            [
+                (1, 1, "erase update".to_string(), false),
+                (2, 3, "program update".to_string(), false),
+                (4, 4, "program state".to_string(), false),
+                (5, 5, "erase state".to_string(), false),
+                (6, 6, "program state".to_string(), false),
+                (7, 7, "program state".to_string(), true),
+            ]
+        );
+        let at = |phase, all| {
+            points(&r, phase, all)
+                .iter()
+                .map(|p| p.0)
+                .collect::<Vec<_>>()
+        };
+        // The upload's default cut: the state partition's erase.
+        assert_eq!(at(Phase::Upload, false), [5]);
+        // Every run's first and last, the image's only.
+        assert_eq!(at(Phase::Upload, true), [1, 2, 3, 4, 5, 6]);
+        assert_eq!(at(Phase::Swap, true), [7]);
+    }
+
+    #[test]
+    fn the_swap_and_the_confirmation_are_cut_where_they_are_fragile() {
+        let ops = census(&[
+            ("erase", 0x0810_0000, false),
+            ("program", 0x0810_0000, false),
+            ("program", 0x081E_0000, false),
+            ("erase", 0x0802_0000, false),
+            ("program", 0x0802_0000, false),
+            ("program", 0x0802_0020, false),
+            ("program", 0x0802_0040, false),
+            ("program", 0x081E_0020, false),
+            ("program", 0x081E_0040, false),
+            ("program", 0x081E_0060, true),
+            ("erase", 0x081E_0000, true),
+            ("program", 0x081E_0000, true),
+        ]);
+        let r = runs(&ops, &PARTS);
+        let at = |phase| {
+            points(&r, phase, false)
+                .iter()
+                .map(|p| p.0)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(at(Phase::Swap), [4, 6, 9]);
+        assert_eq!(at(Phase::Confirm), [10, 11]);
+    }
+
+    #[test]
+    fn the_version_is_the_last_start_after_the_cut() {
+        let log = "device: rri-sensor 0.1.0 on NUCLEO\nrehost: power cut at flash operation 4 (cycle 1)\ndevice: rri-sensor 0.1.1 on NUCLEO-H743ZI2: AnyDevice\n";
+        assert_eq!(version_after_cut(log).as_deref(), Some("0.1.1"));
+        assert_eq!(version_after_cut("device: rri-sensor 0.1.0 on X\n"), None);
+    }
+}
