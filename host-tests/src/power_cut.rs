@@ -297,6 +297,8 @@ fn swap_run(
     let engine = crate::rehost::build_engine()?;
     let boot = crate::rehost::boot_image("h743")?;
     let mut cmd = Command::new(engine);
+    // The log is read with A's table throughout: B is A with a newer
+    // version string, so their RTT blocks and defmt tables are the same.
     cmd.current_dir(crate::workspace())
         .args(["--board", "h743", "--elf"])
         .arg(&images.a)
@@ -346,6 +348,21 @@ fn version_after_cut(log: &str) -> Option<String> {
         .map(String::from)
 }
 
+/// Whether the image running at the end of the log after the cut is not
+/// left on trial: every "is on trial" line after the cut is followed by
+/// its confirmation (`update: version X confirmed`). An image left on
+/// trial would be rolled back at the next reset.
+fn ends_confirmed(log: &str) -> bool {
+    let Some(cut) = log.find("rehost: power cut at flash operation") else {
+        return false;
+    };
+    let after = &log[cut..];
+    match after.rfind("and is on trial") {
+        None => true,
+        Some(trial) => after[trial..].contains(" confirmed: "),
+    }
+}
+
 /// The last lines of a log, indented, for a failed verdict.
 fn tail<'a>(lines: impl DoubleEndedIterator<Item = &'a str>) -> String {
     let last: Vec<&str> = lines.rev().take(12).collect();
@@ -371,10 +388,16 @@ fn swap_cut(
         .unwrap_or("no robot summary")
         .to_string();
     let version = version_after_cut(&log);
+    let confirmed = ends_confirmed(&log);
     let line = format!(
-        "{}, operation {n} ({what}): back running {}; {robot}",
+        "{}, operation {n} ({what}): back running {}{}; {robot}",
         phase.name(),
-        version.as_deref().unwrap_or("nothing")
+        version.as_deref().unwrap_or("nothing"),
+        if confirmed {
+            ", confirmed"
+        } else {
+            ", LEFT ON TRIAL"
+        }
     );
     let is = |v: &str| version.as_deref() == Some(v);
     let whole = match phase {
@@ -382,7 +405,7 @@ fn swap_cut(
         _ => is(&images.b_version),
     };
     let all = format!("sent {ROBOT} answered {ROBOT} late 0 lost 0 wrong 0");
-    if code == 0 && whole && robot.contains(&all) {
+    if code == 0 && whole && confirmed && robot.contains(&all) {
         Ok(line)
     } else {
         Err(format!(
@@ -625,6 +648,19 @@ mod tests {
         };
         assert_eq!(at(Phase::Swap), [4, 6, 9]);
         assert_eq!(at(Phase::Confirm), [10, 11]);
+    }
+
+    #[test]
+    fn an_image_left_on_trial_after_the_cut_is_seen() {
+        let cut = "rehost: power cut at flash operation 9 (cycle 1)\n";
+        let trial = "device: update: version 0.1.1 was just swapped in, replacing version 0.1.0, and is on trial: it confirms itself\n";
+        let confirmed = "device: update: version 0.1.1 confirmed: OPERATING\n";
+        assert!(ends_confirmed(&format!("{cut}{trial}{confirmed}")));
+        assert!(!ends_confirmed(&format!("{cut}{trial}")));
+        // A trial before the cut is not the one that counts.
+        assert!(!ends_confirmed(&format!("{trial}{confirmed}{cut}{trial}")));
+        assert!(ends_confirmed(&format!("{trial}{cut}")));
+        assert!(!ends_confirmed("no cut at all"));
     }
 
     #[test]

@@ -64,16 +64,18 @@ fn settle(uc: &mut Unicorn<State>) {
             op.pc = pc;
         }
     }
-    let writes = std::mem::take(&mut s.shared.program);
+    let mut writes = std::mem::take(&mut s.shared.program);
     let stall = std::mem::take(&mut s.shared.stall);
     if s.shared.flash.cut {
-        // The power fails as the operation starts: nothing of it, nor
-        // anything else not yet in the array, gets there. The machine
-        // powers the chip off before the next block.
+        // The power fails as the operation starts: nothing of it gets to
+        // the array, nor anything after it; what ended before it in the
+        // same access (an erase) does. The machine powers the chip off
+        // before the next block.
+        writes.truncate(s.shared.flash.kept.take().unwrap_or(0));
         s.deadline = s.now;
-        return;
+    } else {
+        s.now += stall;
     }
-    s.now += stall;
     let alias = s.chip.flash_alias;
     for (addr, bytes) in writes {
         let _ = uc.mem_write(u64::from(addr), &bytes);

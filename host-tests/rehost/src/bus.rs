@@ -50,6 +50,11 @@ pub struct FlashOps {
     /// The cut is due: the machine powers the chip off before the
     /// operation changes the array.
     pub cut: bool,
+    /// How many of the bytes handed to the array in the access that
+    /// started the cut operation came before it (an erase that ended
+    /// just before, in the same access): those reach the array, nothing
+    /// after them does.
+    pub kept: Option<usize>,
     /// With `--flash-census`: each operation.
     pub census: Option<Vec<CensusOp>>,
 }

@@ -40,6 +40,9 @@ pub fn start(cx: &mut Cx, us: u64, erase: Option<(u32, u32)>, stalls: bool) -> B
     cx.flash.started += 1;
     if cx.flash.cut_at == Some(cx.flash.started) {
         cx.flash.cut = true;
+        // A program's own bytes were handed over just before it starts.
+        let own = usize::from(erase.is_none());
+        cx.flash.kept = Some(cx.program.len().saturating_sub(own));
     }
     if let Some(census) = &mut cx.flash.census {
         // A program's bytes are handed over just before it starts.
@@ -162,6 +165,10 @@ mod tests {
             }
             // Flagged at the third, and it stays flagged for the machine.
             assert_eq!(shared.flash.cut, n >= 3, "operation {n}");
+            if n == 3 {
+                // The first program's bytes came before it, its own not.
+                assert_eq!(shared.flash.kept, Some(1));
+            }
         }
         assert_eq!(shared.flash.started, 4);
         let census = shared.flash.census.unwrap();

@@ -436,10 +436,17 @@ impl Machine {
             let s = self.uc.get_data();
             self.notes.push(format!(
                 "power cut at flash operation {} (cycle {}, {}): the chip powers up again, the SRAM lost, the flash kept",
-                s.shared.flash.started,
+                s.shared.flash.cut_at.unwrap_or(s.shared.flash.started),
                 s.now,
                 s.image.describe(pc)
             ));
+            // What the image logged before the cut is read; the decoder
+            // then starts afresh (a frame cut in half is gone with the
+            // SRAM).
+            if let Some(rtt) = &mut self.rtt {
+                self.log.extend(rtt.lines(&mut self.uc));
+                rtt.restart();
+            }
             return crate::reset::power_cycle(&mut self.uc, fresh());
         }
         let cause = if s.scs.reset_requested {

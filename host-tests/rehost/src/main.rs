@@ -174,7 +174,9 @@ fn main() {
     if let Some(path) = &args.flash_in {
         let bytes =
             std::fs::read(path).unwrap_or_else(|e| fail(2, &format!("{}: {e}", path.display())));
+        // The core starts from the vector table the flash put in holds.
         m.set_flash(&bytes)
+            .and_then(|()| rri_rehost::reset::reset_core(&mut m.uc))
             .unwrap_or_else(|e| fail(2, &format!("{}: {e}", path.display())));
     }
     m.resets_left = args.resets;

@@ -62,14 +62,19 @@ pub fn power_cycle(uc: &mut Unicorn<State>, fresh: (Bus, Clocks)) -> Result<(), 
         .iter()
         .filter(|m| m.access == crate::chip::Access::Ram)
     {
-        uc.mem_write(
-            u64::from(m.base),
-            &vec![crate::machine::POWER_ON_RAM; m.size as usize],
-        )
-        .map_err(|e| format!("unicorn: SRAM at power-on: {e:?}"))?;
+        let (base, end) = (u64::from(m.base), u64::from(m.base) + u64::from(m.size));
+        uc.mem_write(base, &vec![crate::machine::POWER_ON_RAM; m.size as usize])
+            .map_err(|e| format!("unicorn: SRAM at power-on: {e:?}"))?;
+        // No code translated from before the cut runs from it again.
+        uc.ctl_remove_cache(base, end)
+            .map_err(|e| format!("unicorn: dropping translated code: {e:?}"))?;
+        uc.get_data_mut()
+            .block_sizes
+            .retain(|a, _| *a < base || *a >= end);
     }
     let s = uc.get_data_mut();
     s.shared.flash.cut = false;
+    s.shared.flash.kept = None;
     s.shared.program.clear();
     s.shared.stall = 0;
     // No reset flags kept: the fresh RCC's are power-on's.

@@ -8,6 +8,7 @@ use unicorn_engine::Unicorn;
 
 pub struct Rtt {
     block: u64,
+    table: &'static defmt_decoder::Table,
     decoder: Box<dyn defmt_decoder::StreamDecoder>,
 }
 
@@ -25,8 +26,15 @@ impl Rtt {
         let table: &'static defmt_decoder::Table = Box::leak(Box::new(table));
         Some(Rtt {
             block,
+            table,
             decoder: table.new_stream_decoder(),
         })
+    }
+
+    /// Forgets any frame begun before a power cut: the image starts its
+    /// log afresh.
+    pub fn restart(&mut self) {
+        self.decoder = self.table.new_stream_decoder();
     }
 
     /// The log lines written since the last call.

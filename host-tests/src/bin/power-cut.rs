@@ -29,8 +29,8 @@ struct Args {
     #[arg(long, value_enum, default_value_t = Which::H743)]
     board: Which,
     /// Cut at the first and the last operation of every run of one kind
-    /// in one partition (about 80 cuts, an hour or more), not only at the
-    /// few chosen ones.
+    /// in one partition by one program (61 cuts, about an hour), not only
+    /// at the few chosen ones.
     #[arg(long)]
     all: bool,
 }
