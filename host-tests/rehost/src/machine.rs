@@ -9,7 +9,7 @@
 
 use crate::access::{bus_read, bus_write};
 use crate::bus::{Bus, ResetCause, Shared};
-use crate::chip::{Access, Chip};
+use crate::chip::Chip;
 use crate::clocks::Clocks;
 use crate::exceptions;
 use crate::fault::Fault;
@@ -19,7 +19,7 @@ use crate::state::Active;
 pub use crate::state::State;
 pub use crate::stop::Stop;
 use std::rc::Rc;
-use unicorn_engine::{Arch, ArmCpuModel, HookType, MemType, Mode, Prot, RegisterARM, Unicorn};
+use unicorn_engine::{Arch, ArmCpuModel, HookType, MemType, Mode, RegisterARM, Unicorn};
 
 /// Where the peripherals are: one window for the chip's buses (APB, AHB,
 /// and on the H7 the D3 domain) and the core's private peripheral bus.
@@ -58,48 +58,7 @@ pub struct Machine {
     pub notes: Vec<String>,
 }
 
-/// What every byte of SRAM holds at power-on in the model.
-pub const POWER_ON_RAM: u8 = 0xA5;
-
 impl Machine {
-    /// The whole flash, every bank, as a probe would read it back.
-    pub fn flash(&self) -> Result<Vec<u8>, String> {
-        let (base, size) = self.uc.get_data().chip.flash;
-        self.uc
-            .mem_read_as_vec(u64::from(base), size as usize)
-            .map_err(|e| format!("unicorn: reading the flash: {e:?}"))
-    }
-
-    /// Replaces the whole flash (and its alias) with `bytes`, which must
-    /// be exactly the chip's flash size.
-    pub fn set_flash(&mut self, bytes: &[u8]) -> Result<(), String> {
-        let chip = self.uc.get_data().chip;
-        if bytes.len() != chip.flash.1 as usize {
-            return Err(format!(
-                "{} bytes, but {} has {} bytes of flash",
-                bytes.len(),
-                chip.name,
-                chip.flash.1
-            ));
-        }
-        let e = |err| format!("unicorn: writing the flash: {err:?}");
-        let (base, size) = (u64::from(chip.flash.0), u64::from(chip.flash.1));
-        self.uc.mem_write(base, bytes).map_err(e)?;
-        let s = self.uc.get_data_mut();
-        s.code_changed.push((base, base + size));
-        if let Some((alias, _, size)) = chip.flash_alias {
-            self.uc
-                .mem_write(u64::from(alias), bytes.get(..size as usize).unwrap_or(&[]))
-                .map_err(e)?;
-            let alias = u64::from(alias);
-            self.uc
-                .get_data_mut()
-                .code_changed
-                .push((alias, alias + u64::from(size)));
-        }
-        crate::hooks::follow_code(&mut self.uc)
-    }
-
     /// Maps the chip, loads the image and resets the core.
     pub fn new(chip: Chip, image: Image, bus: Bus, clocks: Clocks) -> Result<Machine, String> {
         let image = Rc::new(image);
@@ -143,62 +102,7 @@ impl Machine {
         // itself (tests/cpu.rs).
         uc.ctl_set_cpu_model(ArmCpuModel::CORTEX_M7 as i32)
             .map_err(e("Cortex-M7"))?;
-        for m in chip.memories {
-            let prot = match m.access {
-                Access::Rom => Prot::READ | Prot::EXEC,
-                Access::Ram => Prot::ALL,
-            };
-            uc.mem_map(u64::from(m.base), u64::from(m.size), prot)
-                .map_err(e(m.name))?;
-        }
-        // SRAM holds no defined value at power-on (unicorn's would be
-        // zeros): filled with a pattern, so that an image that reads
-        // memory it never wrote does not get a lucky zero. A system reset
-        // keeps it, as silicon does.
-        for m in chip.memories.iter().filter(|m| m.access == Access::Ram) {
-            uc.mem_write(u64::from(m.base), &vec![POWER_ON_RAM; m.size as usize])
-                .map_err(e("power-on RAM"))?;
-        }
-        // A chip's flash leaves the factory erased: all ones (RM0410
-        // §3.3.5, RM0433 §4.3.9). A bootloader reads its state partition
-        // and an image partition's vector table there before anything is
-        // written.
-        let erased = vec![0xFF; chip.flash.1 as usize];
-        uc.mem_write(u64::from(chip.flash.0), &erased)
-            .map_err(e("erased flash"))?;
-        if let Some((alias, _, size)) = chip.flash_alias {
-            uc.mem_write(u64::from(alias), erased.get(..size as usize).unwrap_or(&[]))
-                .map_err(e("erased flash alias"))?;
-        }
-        for load in &image.loads {
-            if chip.memory_at(load.addr).is_none() {
-                return Err(format!(
-                    "the image loads {} bytes at {:#010x}, where {} has no memory: is it built for this board?",
-                    load.bytes.len(),
-                    load.addr,
-                    chip.name
-                ));
-            }
-            uc.mem_write(load.addr, &load.bytes).map_err(e("load"))?;
-            if let Some((alias, flash, size)) = chip.flash_alias {
-                let (flash, size) = (u64::from(flash), u64::from(size));
-                if load.addr >= flash && load.addr < flash + size {
-                    uc.mem_write(load.addr - flash + u64::from(alias), &load.bytes)
-                        .map_err(e("flash alias"))?;
-                }
-            }
-        }
-        // The factory data: a unique ID (fixed, so runs repeat) and the
-        // flash size in KiB.
-        uc.mem_write(
-            u64::from(chip.uid_base),
-            &[
-                0x31, 0x00, 0x4b, 0x00, 0x11, 0x51, 0x38, 0x30, 0x33, 0x36, 0x38, 0x37,
-            ],
-        )
-        .map_err(e("unique ID"))?;
-        uc.mem_write(u64::from(chip.flash_size_base), &2048u16.to_le_bytes())
-            .map_err(e("flash size"))?;
+        crate::memories::power_on(&mut uc, &image)?;
 
         uc.mmio_map(
             PERIPHERALS.0,
@@ -579,34 +483,4 @@ impl Machine {
 
 /// A machine for the engine's own unit tests.
 #[cfg(test)]
-pub(crate) mod testing {
-    use super::Machine;
-    use crate::image::{Image, Load};
-
-    /// A whole H743 flash holding a vector table (the stack at
-    /// 0x2000_1000, reset to a `b .` at 0x40) and `code`'s half-words from
-    /// offset 0x20, erased elsewhere.
-    pub(crate) fn flash_with(code: &[u16]) -> Vec<u8> {
-        let mut f = vec![0xFF; 2048 * 1024];
-        f[0..4].copy_from_slice(&0x2000_1000u32.to_le_bytes());
-        f[4..8].copy_from_slice(&0x0800_0041u32.to_le_bytes());
-        f[0x40..0x42].copy_from_slice(&0xE7FEu16.to_le_bytes());
-        for (i, hw) in code.iter().enumerate() {
-            f[0x20 + 2 * i..0x22 + 2 * i].copy_from_slice(&hw.to_le_bytes());
-        }
-        f
-    }
-
-    /// The H743 with [`flash_with`]'s first 256 bytes as its image.
-    pub(crate) fn h743(code: &[u16]) -> Machine {
-        let mut image = Image::default();
-        image.loads.push(Load {
-            addr: 0x0800_0000,
-            bytes: flash_with(code)[..0x100].to_vec(),
-        });
-        let (bus, clocks) = crate::h7::bus();
-        let mut m = Machine::new(crate::chip::STM32H743ZI, image, bus, clocks).unwrap();
-        m.rebuild = Some(crate::h7::bus);
-        m
-    }
-}
+pub(crate) mod testing;

@@ -63,7 +63,7 @@ pub fn power_cycle(uc: &mut Unicorn<State>, fresh: (Bus, Clocks)) -> Result<(), 
         .filter(|m| m.access == crate::chip::Access::Ram)
     {
         let (base, end) = (u64::from(m.base), u64::from(m.base) + u64::from(m.size));
-        uc.mem_write(base, &vec![crate::machine::POWER_ON_RAM; m.size as usize])
+        uc.mem_write(base, &vec![crate::memories::POWER_ON_RAM; m.size as usize])
             .map_err(|e| format!("unicorn: SRAM at power-on: {e:?}"))?;
         // No code translated from before the cut runs from it again.
         uc.ctl_remove_cache(base, end)
@@ -129,7 +129,7 @@ mod tests {
         m.uc.reg_write(RegisterARM::PC, 0x0800_0020).unwrap();
         m.uc.get_data_mut().shared.flash.cut = true;
         super::power_cycle(&mut m.uc, crate::h7::bus()).unwrap();
-        let p = crate::machine::POWER_ON_RAM;
+        let p = crate::memories::POWER_ON_RAM;
         assert_eq!(m.uc.mem_read_as_vec(0x2000_0000, 4).unwrap(), [p; 4]);
         assert_eq!(m.uc.mem_read_as_vec(0x2400_0000, 4).unwrap(), [p; 4]);
         assert_eq!(
