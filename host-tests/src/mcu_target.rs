@@ -13,6 +13,18 @@ use std::sync::OnceLock;
 /// The firmware's target.
 pub const TARGET: &str = "thumbv7em-none-eabihf";
 
+/// The cargo profile of every firmware build (the root Cargo.toml says why
+/// it is not `release`): the figures measured here are what boards run.
+pub const PROFILE: &str = "firmware";
+
+/// Cargo's target directory (`CARGO_TARGET_DIR` or `target/`).
+pub fn target_dir() -> std::path::PathBuf {
+    match std::env::var_os("CARGO_TARGET_DIR") {
+        Some(d) => std::path::PathBuf::from(d),
+        None => crate::workspace().join("target"),
+    }
+}
+
 /// The line that says how to install it.
 pub fn install_hint() -> String {
     format!(

@@ -16,13 +16,12 @@ use std::time::{Duration, Instant};
 /// QEMU's system emulator for Arm and the machine we boot.
 pub const QEMU: &str = "qemu-system-arm";
 pub const MACHINE: &str = "mps2-an500";
-/// The firmware's target (`mcu_target`'s, which installs it).
-pub use crate::mcu_target::TARGET;
-/// The features that pick the QEMU board.
-pub const BOARD_FEATURES: &str = "board,hal-board/mps2-an500";
-/// The cargo profile of every firmware build (the root Cargo.toml says why
-/// it is not `release`): the figures measured here are what boards run.
-pub const PROFILE: &str = "firmware";
+/// The firmware's target, profile and cargo's target directory
+/// (`mcu_target`'s, which installs the target).
+pub use crate::mcu_target::{target_dir, PROFILE, TARGET};
+/// The features that pick the QEMU board (its flash map's module builds
+/// the bootloader with them).
+pub use crate::qemu_flash::BOARD_FEATURES;
 
 /// Finds `qemu-system-arm`; installs Debian's package when we are root,
 /// else says exactly what to install.
@@ -137,14 +136,6 @@ pub fn keep_image_from(built_in: &Path, dir: &str, name: &str) -> Result<PathBuf
 /// Where cargo puts the firmware image in target directory `dir`.
 pub fn image_in(dir: &Path) -> PathBuf {
     dir.join(TARGET).join(PROFILE).join("rri-sensor")
-}
-
-/// Cargo's target directory (`CARGO_TARGET_DIR` or `target/`).
-pub fn target_dir() -> PathBuf {
-    match std::env::var_os("CARGO_TARGET_DIR") {
-        Some(d) => PathBuf::from(d),
-        None => crate::workspace().join("target"),
-    }
 }
 
 /// A free TCP port on 127.0.0.1 for QEMU to forward the diagnostics to.

@@ -8,7 +8,10 @@
 //! The regions are read from that memory map, the one both images link
 //! with, so that this side cannot drift from it.
 
-use crate::qemu::{target_dir, PROFILE, TARGET};
+use crate::mcu_target::{target_dir, PROFILE, TARGET};
+
+/// The features that pick the QEMU board.
+pub const BOARD_FEATURES: &str = "board,hal-board/mps2-an500";
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -116,7 +119,7 @@ pub fn bootloader() -> Result<PathBuf, String> {
             "--target",
             TARGET,
             "--features",
-            crate::qemu::BOARD_FEATURES,
+            BOARD_FEATURES,
         ],
         "the bootloader's build",
     )?;
