@@ -4,8 +4,9 @@
 //! the file again, the swap's must be finished by the bootloader and the
 //! new image answer. See `host_tests::power_cut`.
 //!
-//! Exit status: 0 when every cut ended so, 1 when one did not, 2 when the
-//! images could not be built or the censuses not made.
+//! Exit status: 0 when every cut ended so; 1 when one did not, or when
+//! the images could not be built or the censuses not made (the first
+//! error is said); 2 when the build tools or the GSI folder are missing.
 
 use clap::{Parser, ValueEnum};
 use host_tests::{power_cut, setup::Setup};
