@@ -9,6 +9,23 @@ use unicorn_engine::Unicorn;
 /// What every byte of SRAM holds at power-on in the model.
 pub const POWER_ON_RAM: u8 = 0xA5;
 
+/// Every SRAM of the chip as at power-on, and each one's range. SRAM
+/// holds no defined value then (unicorn's would be zeros): it is filled
+/// with a pattern, so that an image that reads memory it never wrote does
+/// not get a lucky zero. A system reset keeps it, as silicon does; a
+/// power cut brings the pattern back.
+pub(crate) fn fill_sram(uc: &mut Unicorn<'_, State>) -> Result<Vec<(u64, u64)>, String> {
+    let chip = uc.get_data().chip;
+    let mut filled = Vec::new();
+    for m in chip.memories.iter().filter(|m| m.access == Access::Ram) {
+        let base = u64::from(m.base);
+        uc.mem_write(base, &vec![POWER_ON_RAM; m.size as usize])
+            .map_err(|e| format!("unicorn: SRAM at power-on: {e:?}"))?;
+        filled.push((base, base + u64::from(m.size)));
+    }
+    Ok(filled)
+}
+
 /// Maps the chip's memories as at power-on: the SRAM holding the
 /// power-on pattern, the flash erased and then programmed with `image`
 /// (as a probe leaves it), the factory data.
@@ -25,14 +42,7 @@ pub(crate) fn power_on(uc: &mut Unicorn<'static, State>, image: &Image) -> Resul
         uc.mem_map(u64::from(m.base), u64::from(m.size), prot)
             .map_err(e(m.name))?;
     }
-    // SRAM holds no defined value at power-on (unicorn's would be
-    // zeros): filled with a pattern, so that an image that reads
-    // memory it never wrote does not get a lucky zero. A system reset
-    // keeps it, as silicon does.
-    for m in chip.memories.iter().filter(|m| m.access == Access::Ram) {
-        uc.mem_write(u64::from(m.base), &vec![POWER_ON_RAM; m.size as usize])
-            .map_err(e("power-on RAM"))?;
-    }
+    fill_sram(uc)?;
     // A chip's flash leaves the factory erased: all ones (RM0410
     // §3.3.5, RM0433 §4.3.9). A bootloader reads its state partition
     // and an image partition's vector table there before anything is

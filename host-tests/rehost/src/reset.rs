@@ -57,14 +57,7 @@ pub fn reset_core(uc: &mut Unicorn<State>) -> Result<(), String> {
 /// after a power-on reset), the SRAM holding no trace of before (the
 /// power-on pattern again), the flash kept: it is what survives.
 pub fn power_cycle(uc: &mut Unicorn<State>, fresh: (Bus, Clocks)) -> Result<(), String> {
-    let memories = uc.get_data().chip.memories;
-    for m in memories
-        .iter()
-        .filter(|m| m.access == crate::chip::Access::Ram)
-    {
-        let (base, end) = (u64::from(m.base), u64::from(m.base) + u64::from(m.size));
-        uc.mem_write(base, &vec![crate::memories::POWER_ON_RAM; m.size as usize])
-            .map_err(|e| format!("unicorn: SRAM at power-on: {e:?}"))?;
+    for (base, end) in crate::memories::fill_sram(uc)? {
         // No code translated from before the cut runs from it again.
         uc.ctl_remove_cache(base, end)
             .map_err(|e| format!("unicorn: dropping translated code: {e:?}"))?;
