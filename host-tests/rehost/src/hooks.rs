@@ -16,6 +16,9 @@ pub(crate) enum Seen {
     /// CPSIE, or MSR to PRIMASK/BASEPRI/BASEPRI_MAX/FAULTMASK: a pending
     /// interrupt may be taken at once.
     Unmask,
+    /// YIELD: a NOP on the Cortex-M7, undefined to unicorn
+    /// ([`step_over_yield`]).
+    Yield,
 }
 
 /// What the half-word `hw` (followed by `next`) is, if it starts one of
@@ -27,6 +30,8 @@ pub(crate) fn seen(hw: u16, next: u16) -> Option<Seen> {
         Some(Seen::Sleep)
     } else if hw == 0xBF40 {
         Some(Seen::Sev)
+    } else if hw == 0xBF10 {
+        Some(Seen::Yield)
     } else if hw == 0xB662
         || (hw & 0xFFF0 == 0xF380
             && next & 0xFF00 == 0x8800
@@ -111,6 +116,36 @@ pub(crate) fn follow_code(uc: &mut Unicorn<'static, State>) -> Result<(), String
     Ok(())
 }
 
+/// YIELD is a hint every ARMv7-M core may run as a NOP (A7.7.263; the
+/// Cortex-M7 does), and `core::hint::spin_loop` emits it; unicorn raises
+/// it as undefined (a UsageFault the image would never take). Its hook
+/// stops the core before it, and it is stepped over here, outside an IT
+/// block; inside one the IT state would have to advance with it, which
+/// is not modelled: said.
+///
+/// Whether it is in an IT block is read from the code, as unicorn does
+/// not keep the IT state in xPSR between a hook and the next start: an IT
+/// instruction (0xBFxy, mask y not 0) in any of the four half-words
+/// before it. A half-word of data or of a 32-bit instruction may look
+/// like one: the engine then refuses a YIELD it could have stepped over,
+/// never the other way round.
+pub(crate) fn step_over_yield(uc: &mut Unicorn<'static, State>, pc: u32) -> Result<(), String> {
+    use unicorn_engine::RegisterARM;
+    let mut before = [0u8; 8];
+    let _ = uc.mem_read(u64::from(pc.saturating_sub(8)), &mut before);
+    let in_it = before
+        .chunks_exact(2)
+        .map(|b| u16::from_le_bytes([b[0], b[1]]))
+        .any(|hw| hw & 0xFF00 == 0xBF00 && hw & 0x000F != 0);
+    if in_it {
+        return Err(format!(
+            "a YIELD inside an IT block at {pc:#010x}, which unicorn raises as undefined (silicon runs it as a NOP): not modelled"
+        ));
+    }
+    uc.reg_write(RegisterARM::PC, u64::from(pc) + 2)
+        .map_err(|e| format!("unicorn: stepping over YIELD: {e:?}"))
+}
+
 /// One instruction's hook.
 fn hook(
     uc: &mut Unicorn<'static, State>,
@@ -126,6 +161,10 @@ fn hook(
             let _ = uc.emu_stop();
         }),
         Seen::Sev => uc.add_code_hook(addr, addr, |uc, _, _| uc.get_data_mut().event = true),
+        Seen::Yield => uc.add_code_hook(addr, addr, |uc, addr, _| {
+            uc.get_data_mut().yield_at = Some(addr as u32);
+            let _ = uc.emu_stop();
+        }),
         Seen::Unmask => uc.add_code_hook(addr, addr, |uc, _, _| {
             let s = uc.get_data();
             let pending = s.scs.pendsv
@@ -167,6 +206,22 @@ mod tests {
 
     fn hooked(m: &crate::machine::Machine) -> Vec<u64> {
         m.uc.get_data().instruction_hooks.keys().copied().collect()
+    }
+
+    #[test]
+    fn yield_runs_as_the_hint_it_is() {
+        use unicorn_engine::RegisterARM;
+        // YIELD, NOP, then `b .` at 0x24.
+        let mut m = crate::machine::testing::h743(&[0xBF10, 0xBF00, 0xE7FE]);
+        m.uc.reg_write(RegisterARM::PC, 0x0800_0020).unwrap();
+        assert!(m.run(200).is_none());
+        assert_eq!(m.uc.reg_read(RegisterARM::PC).unwrap(), 0x0800_0024);
+        assert_eq!(m.uc.get_data().exceptions_taken, 0);
+        // Inside an IT block it is not skipped: said, not faulted.
+        let mut m = crate::machine::testing::h743(&[0x2800, 0xBF08, 0xBF10, 0xE7FE]);
+        m.uc.reg_write(RegisterARM::PC, 0x0800_0020).unwrap();
+        let stop = m.run(200).expect("a YIELD in an IT block is refused");
+        assert!(format!("{stop:?}").contains("IT block"), "{stop:?}");
     }
 
     #[test]

@@ -79,6 +79,7 @@ impl Machine {
             reached: false,
             active: Active::default(),
             exceptions_taken: 0,
+            yield_at: None,
             exception_return: None,
             fault: None,
             mpu_denied: Vec::new(),
@@ -403,6 +404,9 @@ impl Machine {
         let uc = &mut self.uc;
         if let Some(ret) = uc.get_data_mut().exception_return.take() {
             exceptions::leave(uc, ret)?;
+        }
+        if let Some(at) = uc.get_data_mut().yield_at.take() {
+            crate::hooks::step_over_yield(uc, at)?;
         }
         if let Some(fault) = uc.get_data_mut().fault.take() {
             exceptions::take_fault(uc, fault)?;

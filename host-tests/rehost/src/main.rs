@@ -121,6 +121,11 @@ struct Args {
     /// PC that started it (where to aim `--power-cut`).
     #[arg(long)]
     flash_census: Option<PathBuf>,
+    /// The F767's flash in dual-bank mode (option byte nDBANK = 0, as the
+    /// README has the user set it once with the probe) instead of the
+    /// factory's single bank: the mode its updates need.
+    #[arg(long)]
+    dual_bank: bool,
     /// Print the device's log (defmt over RTT) as `device:` lines.
     #[arg(long, default_value_t = true)]
     log: bool,
@@ -135,10 +140,19 @@ fn main() {
     });
     args.cycles = Some(cycles);
     let cycles_limit = cycles;
-    let (rebuild, chip, dir): (fn() -> _, _, _) = match args.board.as_str() {
-        "f767" => (rri_rehost::f7::bus, chip::STM32F767ZI, "nucleo-f767zi"),
-        "h743" => (rri_rehost::h7::bus, chip::STM32H743ZI, "nucleo-h743zi"),
-        other => fail(2, &format!("no board {other:?} (f767 or h743)")),
+    let (rebuild, chip, dir): (fn() -> _, _, _) = match (args.board.as_str(), args.dual_bank) {
+        ("f767", false) => (rri_rehost::f7::bus, chip::STM32F767ZI, "nucleo-f767zi"),
+        ("f767", true) => (
+            rri_rehost::f7::bus_dual_bank,
+            chip::STM32F767ZI,
+            "nucleo-f767zi",
+        ),
+        ("h743", false) => (rri_rehost::h7::bus, chip::STM32H743ZI, "nucleo-h743zi"),
+        ("h743", true) => fail(
+            2,
+            "--dual-bank: the H743's flash always has its two banks (the option is the F767's)",
+        ),
+        (other, _) => fail(2, &format!("no board {other:?} (f767 or h743)")),
     };
     let elf = args.elf.unwrap_or_else(|| {
         PathBuf::from(format!(
@@ -353,6 +367,11 @@ fn main() {
     };
     let elapsed = t.elapsed();
     {
+        if let Some(why) = &m.uc.get_data().scs.fault_reason {
+            // The last fault the core took, whether or not its handler
+            // said anything (a bootloader's says nothing).
+            eprintln!("rehost: the last fault taken: {why}");
+        }
         let flash = &m.uc.get_data().shared.flash;
         eprintln!("rehost: {} flash operations", flash.started);
         if let (Some(path), Some(census)) = (&args.flash_census, &flash.census) {

@@ -39,6 +39,9 @@ pub struct State {
     /// The exceptions being handled.
     pub active: Active,
     pub exceptions_taken: u64,
+    /// A YIELD the core stopped at, to be stepped over
+    /// ([`crate::hooks::step_over_yield`]).
+    pub yield_at: Option<u32>,
     /// The handler branched to this EXC_RETURN value.
     pub exception_return: Option<u32>,
     /// A fault to take before the next instruction.

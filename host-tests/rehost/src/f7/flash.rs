@@ -1,8 +1,17 @@
 //! The STM32F76x/77x flash interface (RM0410 rev 5 §3): its access
 //! control (FLASH_ACR's wait states feed the clock check, §3.7.1) and the
-//! programming and erase of the main flash (§3.3.6-3.3.8, §3.7), in the
-//! board's single-bank mode (OPTCR nDBANK = 1, the reset value here):
-//! 12 sectors, 4 x 32K, 128K, 7 x 256K from 0x0800_0000.
+//! programming and erase of the main flash (§3.3.6-3.3.8, §3.7), in
+//! either of its modes, as the option byte nDBANK sets it (OPTCR reads
+//! it back):
+//! - single-bank (nDBANK = 1, the factory's): 12 sectors, 4 x 32K, 128K,
+//!   7 x 256K from 0x0800_0000 (Table 4); every operation stalls the
+//!   core's fetches;
+//! - dual-bank (nDBANK = 0, `cargo rehost -- --dual-bank`): two banks of
+//!   4 x 16K, 64K, 7 x 128K, bank 1 (sectors 0-11) at 0x0800_0000 and
+//!   bank 2 (sectors 12-23, SNB 16-27: bit 4 selects the bank) at
+//!   0x0810_0000 (Table 5); each bank reads while the other writes
+//!   (§3.3.3), so only bank 1's operations stall the core, which runs
+//!   from bank 1 here (bootloader and image).
 //!
 //! Strict where a mistake would corrupt the flash or hang: FLASH_CR
 //! written while locked or while an operation is under way, a wrong key
@@ -15,8 +24,9 @@
 //!
 //! Time: a program or an erase keeps the flash busy (SR.BSY) for the
 //! largest time the public sources give ([`PROGRAM_US`] says which: the
-//! datasheet's table was not at hand), and in single-bank mode the core, which fetches
-//! its code from that flash, waits for it (`crate::flash_array`).
+//! datasheet's table was not at hand), and the core, which fetches its
+//! code from bank 1, waits for it where it shares the bank
+//! (`crate::flash_array`).
 
 use crate::bus::{reg, Cx, Peripheral, Refusal, Reg, Regs};
 use crate::flash_array::{self, Busy};
@@ -25,6 +35,9 @@ const ACR: u32 = 0x00;
 const KEYR: u32 = 0x04;
 const SR: u32 = 0x0C;
 const CR: u32 = 0x10;
+const OPTCR: u32 = 0x14;
+/// OPTCR's nDBANK: 1, a single bank (RM0410 §3.7.6).
+const OPTCR_NDBANK: u32 = 1 << 29;
 
 const FLASH_TABLE: &[Reg] = &[
     reg(ACR, "ACR", 0, 0x0000_0B0F, 0),
@@ -34,7 +47,9 @@ const FLASH_TABLE: &[Reg] = &[
     reg(SR, "SR", 0, 0x0000_00F3, 0x0001_0000),
     // PG, SER, MER, SNB, PSIZE, MER2, STRT, EOPIE, ERRIE; LOCK.
     reg(CR, "CR", 0x8000_0000, 0x0301_87FF, 0x8000_0000),
-    reg(0x14, "OPTCR", 0xFFFF_AAFD, 0xFFFF_FFFF, 0),
+    // The factory's option bytes (nDBANK = 1); `Flash::dual_bank`
+    // clears nDBANK.
+    reg(OPTCR, "OPTCR", 0xFFFF_AAFD, 0xFFFF_FFFF, 0),
     reg(0x18, "OPTCR1", 0x0040_0080, 0xFFFF_FFFF, 0),
 ];
 
@@ -57,6 +72,8 @@ const KEY2: u32 = 0xCDEF_89AB;
 
 /// The main flash.
 pub const BASE: u32 = 0x0800_0000;
+/// Bank 2 in dual-bank mode.
+pub const BANK2: u32 = 0x0810_0000;
 
 /// A word program. DS11532's "Flash memory programming" table was not
 /// at hand when this model was written: the F7's times here are the
@@ -66,23 +83,40 @@ pub const BASE: u32 = 0x0800_0000;
 /// stalls measured on this model are a worst case.
 pub const PROGRAM_US: u64 = 100;
 
-/// The sector `snb` in single-bank mode (RM0410 Table 4): its start and
-/// size.
-pub fn sector(snb: u32) -> Option<(u32, u32)> {
+/// The sector FLASH_CR.SNB `snb` selects: its start and size, in
+/// single-bank mode (RM0410 Table 4) or dual-bank mode (Table 5: SNB
+/// 0-11 bank 1's sectors 0-11, 16-27 bank 2's sectors 12-23).
+pub fn sector(snb: u32, dual: bool) -> Option<(u32, u32)> {
     const K: u32 = 1024;
-    match snb {
-        0..=3 => Some((BASE + snb * 32 * K, 32 * K)),
-        4 => Some((BASE + 128 * K, 128 * K)),
-        5..=11 => Some((BASE + 256 * K * (snb - 4), 256 * K)),
-        _ => None,
+    if !dual {
+        return match snb {
+            0..=3 => Some((BASE + snb * 32 * K, 32 * K)),
+            4 => Some((BASE + 128 * K, 128 * K)),
+            5..=11 => Some((BASE + 256 * K * (snb - 4), 256 * K)),
+            _ => None,
+        };
+    }
+    let (bank, i) = match snb {
+        0..=11 => (BASE, snb),
+        16..=27 => (BANK2, snb - 16),
+        _ => return None,
+    };
+    match i {
+        0..=3 => Some((bank + i * 16 * K, 16 * K)),
+        4 => Some((bank + 64 * K, 64 * K)),
+        _ => Some((bank + 128 * K * (i - 4), 128 * K)),
     }
 }
 
-/// A sector erase by the sector's size ([`PROGRAM_US`] says where the
-/// figures come from: the largest public ones, whatever FLASH_CR.PSIZE;
-/// embassy-stm32 erases with PSIZE 0, x8, the slowest).
-pub fn erase_us(size: u32) -> u64 {
-    match size / 1024 {
+/// A sector erase by the sector's kind: the small, the 64K/128K one or
+/// a large one ([`PROGRAM_US`] says where the figures come from: the
+/// largest public ones, whatever FLASH_CR.PSIZE). In dual-bank mode each
+/// sector is half its single-bank twin (Tables 4 and 5 side by side) and
+/// takes its twin's time, as the F4's same-sized dual-bank sectors do
+/// (16K, 64K, 128K: 800 ms, 2.4 s, 4 s at x8).
+pub fn erase_us(size: u32, dual: bool) -> u64 {
+    let twin = if dual { size * 2 } else { size };
+    match twin / 1024 {
         0..=32 => 800_000,
         33..=128 => 2_400_000,
         _ => 4_000_000,
@@ -108,12 +142,32 @@ pub struct Flash {
 }
 
 impl Flash {
+    /// The factory's single bank.
     pub fn new() -> Flash {
         Flash {
             regs: Regs::new(FLASH_TABLE),
             keys: Keys::Locked,
             busy: None,
         }
+    }
+
+    /// The dual-bank mode: the option byte nDBANK cleared (with a probe,
+    /// before the images were flashed).
+    pub fn dual_bank() -> Flash {
+        let mut f = Flash::new();
+        f.regs.set_bits(OPTCR, OPTCR_NDBANK, false);
+        f
+    }
+
+    fn dual(&self) -> bool {
+        self.regs.get(OPTCR) & OPTCR_NDBANK == 0
+    }
+
+    /// Whether an operation at `addr` stalls the core's fetches: always
+    /// in the single bank, in dual-bank mode only in bank 1, where the
+    /// code runs.
+    fn stalls(&self, addr: u32) -> bool {
+        !self.dual() || addr < BANK2
     }
 
     fn cr(&self) -> u32 {
@@ -159,16 +213,20 @@ impl Flash {
             match (new & CR_SER != 0, new & CR_MER != 0) {
                 (true, false) => {
                     let snb = (new >> 3) & 0x1F;
-                    let Some((base, len)) = sector(snb) else {
-                        return Err(format!(
-                            "FLASH_CR: STRT with SER for sector {snb}, which single-bank mode does not have (0-11, RM0410 Table 4)"
-                        ));
+                    let dual = self.dual();
+                    let Some((base, len)) = sector(snb, dual) else {
+                        return Err(if dual {
+                            format!("FLASH_CR: STRT with SER for SNB {snb}, which dual-bank mode does not have (0-11 for bank 1, 16-27 for bank 2's sectors 12-23, RM0410 Table 5)")
+                        } else {
+                            format!("FLASH_CR: STRT with SER for sector {snb}, which single-bank mode does not have (0-11, RM0410 Table 4)")
+                        });
                     };
+                    let stalls = self.stalls(base);
                     self.busy = Some(flash_array::start(
                         cx,
-                        erase_us(len),
+                        erase_us(len, dual),
                         Some((base, len)),
-                        true,
+                        stalls,
                     ));
                     self.regs.set_bits(SR, SR_BSY, true);
                 }
@@ -319,111 +377,12 @@ impl Flash {
             ));
         }
         cx.program.push((addr, bytes.to_vec()));
-        self.busy = Some(flash_array::start(cx, PROGRAM_US, None, true));
+        let stalls = self.stalls(addr);
+        self.busy = Some(flash_array::start(cx, PROGRAM_US, None, stalls));
         self.regs.set_bits(SR, SR_BSY, true);
         Ok(())
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    type Bench = crate::flash_array::testing::Bench<Flash>;
-
-    fn bench() -> Bench {
-        Bench::new(Flash::new(), 16_000_000)
-    }
-
-    fn unlock(b: &mut Bench) {
-        b.unlock_at(KEYR, [KEY1, KEY2]);
-    }
-
-    #[test]
-    fn the_key_sequence_unlocks_and_a_wrong_key_is_refused() {
-        let mut b = bench();
-        assert_ne!(b.r(CR) & CR_LOCK, 0);
-        let e = b.w(CR, CR_PG).unwrap_err();
-        assert!(e.contains("while locked"), "{e}");
-        unlock(&mut b);
-        assert_eq!(b.r(CR) & CR_LOCK, 0);
-        b.w(CR, CR_LOCK).unwrap();
-        assert_ne!(b.r(CR) & CR_LOCK, 0);
-        let e = b.w(KEYR, KEY2).unwrap_err();
-        assert!(e.contains("bus error"), "{e}");
-    }
-
-    #[test]
-    fn a_word_is_programmed_at_x32_and_a_wrong_size_is_flagged() {
-        let mut b = bench();
-        unlock(&mut b);
-        b.w(CR, CR_PG | (2 << 8)).unwrap();
-        b.store(0x0808_0000, 4, 0x1234_5678, &[0xFF; 4]).unwrap();
-        assert_eq!(
-            b.shared.program,
-            vec![(0x0808_0000, vec![0x78, 0x56, 0x34, 0x12])]
-        );
-        // Busy for the program time, and the core stalled that long.
-        assert_ne!(b.r(SR) & SR_BSY, 0);
-        assert_eq!(b.shared.stall, 16 * PROGRAM_US);
-        b.now += 16 * PROGRAM_US;
-        assert_eq!(b.r(SR) & SR_BSY, 0);
-        // A half-word at x32: PGPERR, nothing written.
-        b.shared.program.clear();
-        b.store(0x0808_0004, 2, 0, &[0xFF; 2]).unwrap();
-        assert!(b.shared.program.is_empty());
-        assert_ne!(b.r(SR) & SR_PGPERR, 0);
-        b.w(SR, SR_PGPERR).unwrap();
-        assert_eq!(b.r(SR) & SR_PGPERR, 0);
-    }
-
-    #[test]
-    fn stores_without_pg_and_over_cleared_bits_are_refused() {
-        let mut b = bench();
-        let e = b.store(0x0808_0000, 4, 0, &[0xFF; 4]).unwrap_err();
-        assert!(e.contains("without FLASH_CR.PG"), "{e}");
-        unlock(&mut b);
-        b.w(CR, CR_PG | (2 << 8)).unwrap();
-        // 0x0F over 0xF0: sets bits, which only an erase does.
-        let e = b
-            .store(0x0808_0000, 4, 0x0F, &[0xF0, 0xFF, 0xFF, 0xFF])
-            .unwrap_err();
-        assert!(e.contains("only an erase sets"), "{e}");
-        // Clearing more bits of a programmed word is allowed.
-        b.store(0x0808_0000, 4, 0x00, &[0xF0, 0xFF, 0xFF, 0xFF])
-            .unwrap();
-    }
-
-    #[test]
-    fn a_sector_erase_takes_its_time_and_leaves_all_ones() {
-        let mut b = bench();
-        unlock(&mut b);
-        b.w(CR, CR_SER | (6 << 3)).unwrap();
-        b.w(CR, CR_SER | (6 << 3) | CR_STRT).unwrap();
-        assert_ne!(b.r(SR) & SR_BSY, 0);
-        // 4 s for 256K, at 16 MHz.
-        let len = 16 * 4_000_000;
-        assert_eq!(b.shared.stall, len);
-        let e = b.w(CR, 0).unwrap_err();
-        assert!(e.contains("while an operation is under way"), "{e}");
-        b.now += len;
-        assert_eq!(b.r(SR) & SR_BSY, 0);
-        assert_eq!(b.shared.program.len(), 1);
-        assert_eq!(b.shared.program[0].0, 0x0808_0000);
-        assert_eq!(b.shared.program[0].1.len(), 256 * 1024);
-        assert!(b.shared.program[0].1.iter().all(|&x| x == 0xFF));
-        // A sector single-bank mode does not have.
-        b.w(CR, CR_SER | (12 << 3)).unwrap();
-        let e = b.w(CR, CR_SER | (12 << 3) | CR_STRT).unwrap_err();
-        assert!(e.contains("sector 12"), "{e}");
-    }
-
-    #[test]
-    fn the_sectors_are_rm0410s() {
-        assert_eq!(sector(0), Some((0x0800_0000, 32 * 1024)));
-        assert_eq!(sector(4), Some((0x0802_0000, 128 * 1024)));
-        assert_eq!(sector(5), Some((0x0804_0000, 256 * 1024)));
-        assert_eq!(sector(11), Some((0x081C_0000, 256 * 1024)));
-        assert_eq!(sector(12), None);
-    }
-}
+mod tests;

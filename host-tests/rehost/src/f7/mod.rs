@@ -22,11 +22,22 @@ const DBGMCU: &[Reg] = &[
 ];
 use crate::clocks::Clocks;
 
-/// The chip's peripheral blocks and its clocks at reset.
+/// The chip's peripheral blocks and its clocks at reset, its flash in
+/// the factory's single-bank mode.
 pub fn bus() -> (Bus, Clocks) {
+    chip(flash::Flash::new())
+}
+
+/// The same, with the option byte nDBANK cleared: the flash in dual-bank
+/// mode (`--dual-bank`), as the README has the user set it once.
+pub fn bus_dual_bank() -> (Bus, Clocks) {
+    chip(flash::Flash::dual_bank())
+}
+
+fn chip(flash: flash::Flash) -> (Bus, Clocks) {
     let mut bus = Bus::default();
     bus.add(0x4002_3800, 0x400, None, rcc::Rcc::new());
-    bus.add(0x4002_3C00, 0x400, None, flash::Flash::new());
+    bus.add(0x4002_3C00, 0x400, None, flash);
     bus.add(0x4000_7000, 0x400, Some("PWR"), power::Pwr::new());
     bus.add(0xE004_2000, 0x400, None, Plain::new("DBGMCU", DBGMCU));
     crate::gpio::ports(
