@@ -141,12 +141,11 @@ fn main() {
     // service's tests). 2: only with a key of the integrator's built in
     // (`RRI_UPDATE_KEY`): a product board takes no demonstration key, so
     // without one its image carries none of the upload's path (and none
-    // of its RAM: the H743's DTCM is the stack's). 0: none (the F767:
-    // `nucleo::update` there says why).
+    // of its RAM: the NUCLEOs' DTCM is the stack's). 0: none.
     let feature = |f: &str| std::env::var_os(format!("CARGO_FEATURE_{f}")).is_some();
     let updates = if !bare_metal || feature("MPS2_AN500") {
         1
-    } else if feature("NUCLEO_H743ZI") {
+    } else if feature("NUCLEO_H743ZI") || feature("NUCLEO_F767ZI") {
         2
     } else {
         0

@@ -130,6 +130,9 @@ pub mod nucleo_boot;
 #[cfg(all(feature = "stm32", target_os = "none"))]
 pub mod nucleo_flash;
 
+#[cfg(all(feature = "nucleo-f767zi", target_os = "none"))]
+pub mod f7_erase;
+
 pub mod boot;
 
 #[cfg(all(

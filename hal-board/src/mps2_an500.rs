@@ -238,6 +238,12 @@ pub mod update {
         crate::mps2_flash::active_len()
     }
 
+    /// Why the board takes no update (never: its flash model has no
+    /// set-up to get wrong).
+    pub fn unavailable() -> Option<&'static str> {
+        None
+    }
+
     /// The update and state partitions (`memory/mps2-an500-flash.x`, RAM
     /// that QEMU's reset leaves alone). Every call makes new handles on
     /// the same bytes: the caller uses one pair at a time (the update

@@ -23,7 +23,7 @@ use embassy_embedded_hal::flash::partition::BlockingPartition;
 use embassy_stm32::flash::{Blocking, Flash as Driver};
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
-use embedded_storage::nor_flash::ReadNorFlash;
+use embedded_storage::nor_flash::{ErrorType, NorFlash, ReadNorFlash};
 
 use crate::nucleo_flash as flash;
 
@@ -44,7 +44,47 @@ pub const COPY_BUFFER: usize = 4096;
 const DTCM: (u32, u32) = (0x2000_0000, 0x2002_0000);
 
 /// One partition of the chip's flash.
-pub type Partition = BlockingPartition<'static, NoopRawMutex, Driver<'static, Blocking>>;
+pub type Partition = BlockingPartition<'static, NoopRawMutex, BootFlash>;
+
+/// embassy-stm32's blocking flash driver, but for the F767's erase,
+/// which is [`crate::f7_erase`]'s (embassy-stm32's erases bank 1 for
+/// bank 2 there); the bootloader runs with no watchdog, so it polls.
+pub struct BootFlash(Driver<'static, Blocking>);
+
+impl ErrorType for BootFlash {
+    type Error = embassy_stm32::flash::Error;
+}
+
+impl ReadNorFlash for BootFlash {
+    const READ_SIZE: usize = <Driver<'static, Blocking> as ReadNorFlash>::READ_SIZE;
+
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+        self.0.blocking_read(offset, bytes)
+    }
+
+    fn capacity(&self) -> usize {
+        self.0.capacity()
+    }
+}
+
+impl NorFlash for BootFlash {
+    const WRITE_SIZE: usize = <Driver<'static, Blocking> as NorFlash>::WRITE_SIZE;
+    const ERASE_SIZE: usize = <Driver<'static, Blocking> as NorFlash>::ERASE_SIZE;
+
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+        // A bare poll of FLASH_SR (the register read is volatile): no
+        // interrupt could wake a WFI here, and YIELD buys nothing on a
+        // single core.
+        #[cfg(feature = "nucleo-f767zi")]
+        return crate::f7_erase::erase(from, to, &mut || {});
+        #[cfg(feature = "nucleo-h743zi")]
+        return self.0.blocking_erase(from, to);
+    }
+
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+        self.0.blocking_write(offset, bytes)
+    }
+}
 
 /// The partitions the bootloader works on, each handed out once.
 pub struct Flash {
@@ -64,13 +104,18 @@ impl Flash {
         if TAKEN.swap(true, Ordering::AcqRel) {
             return None;
         }
-        static DRIVER: static_cell::StaticCell<
-            Mutex<NoopRawMutex, RefCell<Driver<'static, Blocking>>>,
-        > = static_cell::StaticCell::new();
+        #[cfg(feature = "nucleo-f767zi")]
+        if embassy_stm32::pac::FLASH.optcr().read().n_dbank() {
+            start_single_bank();
+        }
+        static DRIVER: static_cell::StaticCell<Mutex<NoopRawMutex, RefCell<BootFlash>>> =
+            static_cell::StaticCell::new();
         // SAFETY: the flash controller is handed out once (TAKEN) and the
         // bootloader runs alone: nothing else drives it.
         let controller = unsafe { embassy_stm32::peripherals::FLASH::steal() };
-        let driver = DRIVER.init(Mutex::new(RefCell::new(Driver::new_blocking(controller))));
+        let driver = DRIVER.init(Mutex::new(RefCell::new(BootFlash(Driver::new_blocking(
+            controller,
+        )))));
         // The map's ASSERTs keep each partition whole erase units (the
         // partition's own rule, which panics otherwise).
         let [active, dfu, state] = [flash::active(), flash::dfu(), flash::state()]
@@ -119,6 +164,31 @@ pub fn start_active(mut active: Partition) -> ! {
     // controller is locked again after every operation); the partition's
     // start is a multiple of 128 (whole sectors: the flash maps' ASSERTs).
     unsafe { crate::boot::start(flash::active_origin()) }
+}
+
+/// An F767 whose flash is still in the factory's single-bank mode
+/// (option byte nDBANK = 1): embassy-stm32's driver, built for the dual-
+/// bank map, would panic, and no update can be pending (the application
+/// takes none in this mode and says why in its log). The active image
+/// starts as it is, read straight from the flash, silently as on every
+/// start that needs nothing; without one, the board fails.
+#[cfg(feature = "nucleo-f767zi")]
+fn start_single_bank() -> ! {
+    let origin = flash::active_origin();
+    // SAFETY: the active partition's first two words, in the flash the
+    // core reads anyway.
+    let (sp, reset) = unsafe {
+        (
+            core::ptr::read_volatile(origin as *const u32),
+            core::ptr::read_volatile((origin + 4) as *const u32),
+        )
+    };
+    if !crate::boot::looks_like_image(sp, reset, origin, flash::active().len, DTCM) {
+        fail("no image in the active partition: flash one with `cargo f767` (probe-rs)");
+    }
+    // SAFETY: as in `start_active`: a vector table is there (checked), and
+    // nothing was started or enabled.
+    unsafe { crate::boot::start(origin) }
 }
 
 /// Lights the red LED, logs `why` and stops, with interrupts off.

@@ -211,7 +211,7 @@ mod tests {
     fn the_maps_put_ram_in_the_dtcm_and_the_dma_rings_where_the_dma_reaches() {
         // FLASH is the active partition of the board's flash map (issue 43).
         for (board, dma, active) in [
-            (&BOARDS[0], 0x2002_0000, (0x0808_0000, 512 * KIB)),
+            (&BOARDS[0], 0x2002_0000, (0x0802_0000, 768 * KIB)),
             (&BOARDS[1], 0x2400_0000, (0x0802_0000, 768 * KIB)),
         ] {
             let map = std::fs::read_to_string(crate::workspace().join(board.memory_map)).unwrap();

@@ -124,7 +124,7 @@ mod tests {
     fn every_board_map_reads_in_order() {
         for (file, page) in [
             ("hal-board/memory/mps2-an500-flash.x", 4 * 1024),
-            ("hal-board/memory/nucleo-f767zi-flash.x", 256 * 1024),
+            ("hal-board/memory/nucleo-f767zi-flash.x", 128 * 1024),
             ("hal-board/memory/nucleo-h743zi-flash.x", 128 * 1024),
         ] {
             let map = std::fs::read_to_string(crate::workspace().join(file)).unwrap();

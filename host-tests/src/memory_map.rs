@@ -142,7 +142,7 @@ mod tests {
         assert_eq!(number("LENGTH(FLASH)"), None);
         assert_eq!(
             map("memory.x")[0],
-            ("FLASH".to_string(), 0x0808_0000, 512 << 10)
+            ("FLASH".to_string(), 0x0802_0000, 768 << 10)
         );
         // The crash record's 128 bytes after DMA_RAM.
         assert_eq!(
@@ -154,8 +154,8 @@ mod tests {
     #[test]
     fn an_elf_linked_for_the_f767_is_not_one_for_qemu() {
         let f767 = [
-            (".vector_table".to_string(), 0x0808_0000, 0x400),
-            (".text".to_string(), 0x0808_0400, 0x1000),
+            (".vector_table".to_string(), 0x0802_0000, 0x400),
+            (".text".to_string(), 0x0802_0400, 0x1000),
             (".data".to_string(), 0x2000_0000, 0x100),
         ];
         assert!(check_memory_map(&f767, &map("memory.x")).is_ok());

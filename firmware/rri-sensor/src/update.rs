@@ -63,16 +63,19 @@ static READ: Blocking<CriticalSectionRawMutex, Cell<Option<Lifecycle>>> =
 /// image swapped in must confirm itself either way ([`Course::take`]).
 pub fn install() {
     let mut word: Word = [0; <Partition as NorFlash>::WRITE_SIZE];
-    let on_trial = match rri_update::state(partitions().state, &mut word) {
-        Ok(state) => state == State::Swap,
-        Err(e) => {
-            defmt::warn!(
-                "update: the state partition cannot be read ({=str}): taken as confirmed",
-                e.text()
-            );
-            false
-        }
-    };
+    // A flash not set up for updates was never written by one (and
+    // cannot be read through the driver): nothing can be on trial.
+    let on_trial = board::update::unavailable().is_none()
+        && match rri_update::state(partitions().state, &mut word) {
+            Ok(state) => state == State::Swap,
+            Err(e) => {
+                defmt::warn!(
+                    "update: the state partition cannot be read ({=str}): taken as confirmed",
+                    e.text()
+                );
+                false
+            }
+        };
     let life = Lifecycle::new(on_trial, board::update::SWAPS);
     rri_diag::tasks::DESK.set_image(life.image());
     if on_trial {
@@ -164,9 +167,14 @@ impl Course {
     }
 }
 
-/// Installs the receiver in the service's desk; without a key the
-/// service stays read-only.
+/// Installs the receiver in the service's desk; without a key, or on a
+/// board whose flash is not set up for updates (the F767 in single-bank
+/// mode), the service stays read-only.
 fn install_receiver() {
+    if let Some(why) = board::update::unavailable() {
+        defmt::error!("updates: none: {=str}; the diagnostics stay read-only", why);
+        return;
+    }
     let Some(key) = KEY else {
         if key::OFF {
             defmt::info!("updates: none (RRI_UPDATE_KEY=off): the diagnostics stay read-only");

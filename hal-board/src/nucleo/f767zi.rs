@@ -6,6 +6,14 @@ use super::clock::Source;
 use embassy_stm32::adc::SampleTime;
 use embassy_stm32::time::Hertz;
 
+/// The board an update file must name (`cargo sign-image -- sign
+/// --board f767`).
+pub const UPDATE_BOARD: &str = "nucleo-f767zi";
+/// Where the image is linked: the active partition's start
+/// (`memory/nucleo-f767zi-flash.x`; `init` checks it against the map's
+/// symbol, and an update file linked elsewhere is refused).
+pub const UPDATE_ORIGIN: u32 = 0x0802_0000;
+
 pub const NAME: &str = "NUCLEO-F767ZI";
 /// The core clock: 216 MHz, the chip's maximum.
 pub const SYSCLK_HZ: u32 = 216_000_000;

@@ -49,24 +49,7 @@ pub mod clock;
 pub mod memory;
 pub mod phy;
 
-#[cfg(feature = "nucleo-h743zi")]
 pub mod update;
-
-/// Update in the cell (issue 43) on the F767: its bootloader and
-/// partitions are in place (`memory/nucleo-f767zi-flash.x`), but the
-/// firmware builds no upload in. The chip runs in single-bank mode, where
-/// a sector erase stalls every fetch from flash for its whole length (2
-/// to 4 s for the 256K sectors the update partition is made of), longer
-/// than the 2 s watchdog: `cargo rehost` showed the watchdog resetting
-/// the chip at an upload's first erase. Taking updates needs the
-/// dual-bank mode (option byte nDBANK = 0), with the update partition in
-/// the other bank, as on the H743.
-#[cfg(feature = "nucleo-f767zi")]
-pub mod update {
-    /// The demonstration key, which anyone can sign with, may not be
-    /// built in (the board is a product).
-    pub const DEMO_KEY_ALLOWED: bool = false;
-}
 
 use defmt_rtt as _;
 use embassy_executor::{Executor, InterruptExecutor, SendSpawner, Spawner};
@@ -150,9 +133,7 @@ pub fn init() -> Result<Board, InitError> {
     broken::before_clocks();
     let p = embassy_stm32::init(chip::config(source));
     broken::after_clocks();
-    #[cfg(feature = "nucleo-h743zi")]
     update::start(p.FLASH);
-    #[cfg(feature = "nucleo-h743zi")]
     if update::ORIGIN != crate::nucleo_flash::active_origin() {
         defmt::error!(
             "update: this image says it is linked at {=u32:#010x}, the flash map's active partition is at {=u32:#010x}: every update file would be refused",

@@ -54,6 +54,14 @@ pub(super) async fn receive(
             // empty (its bytes came before its close).
             if let Ok(n) = slot.inbound.try_read(buf.as_mut_slice()) {
                 piece = buf.get(..n).unwrap_or(&[]);
+                // The other tasks of this executor run between two pieces,
+                // housekeeping (the watchdog's feeding) among them: the
+                // network half refills the pipe from another executor,
+                // so a pipe that never empties would otherwise keep this
+                // loop from ever awaiting. The rehosted F767, whose flash
+                // programs a word in up to 100 us, was reset by its
+                // watchdog in the middle of an upload before this.
+                embassy_futures::yield_now().await;
                 continue;
             }
             let read = select3(
