@@ -1,6 +1,7 @@
 //! `cargo power-cut` (issue 43): the power cut at a flash operation of an
-//! update, on the rehosted NUCLEO-H743ZI2, and what the board does when it
-//! comes back.
+//! update, on a rehosted NUCLEO (the H743; the F767 with `--board f767`,
+//! its flash in dual-bank mode), and what the board does when it comes
+//! back.
 //!
 //! The engine counts every flash operation (a flash-word program, a
 //! sector erase) and with `--power-cut N` cuts the power as the Nth
@@ -40,14 +41,27 @@ mod census;
 
 pub use census::{parse_census, points, runs, Op, Phase, Run};
 
-/// Robot messages after the swap, in virtual time: 4 s at the 4 ms
-/// cycle, long enough for B's confirmation at OPERATING (its 2 s erase
-/// of the state partition, then its mark) to be in the swap's census.
-const ROBOT: u64 = 1000;
+/// Robot messages after the swap, in virtual time at the 4 ms cycle:
+/// long enough for B's confirmation at OPERATING (its erase of the state
+/// partition, then its mark) to be in the swap's census: 4 s on the H743
+/// (a 2 s erase), 10 s on the F767 (the model's 4 s for a 128K sector).
+fn robot_messages(board: Board) -> u64 {
+    match board {
+        Board::F767 => 2500,
+        _ => 1000,
+    }
+}
 
 /// What a cut ended in: one line, `Err` when the board did not come back
 /// as it must.
 pub type Verdict = Result<String, String>;
+
+/// The engine's name for `board`.
+fn engine(board: Board) -> Result<&'static str, String> {
+    board
+        .rehosted()
+        .ok_or_else(|| format!("{board:?}: not a rehosted board"))
+}
 
 /// Where this command keeps its files.
 fn work_dir() -> Result<PathBuf, String> {
@@ -71,11 +85,16 @@ fn send(http: std::net::SocketAddr, file: &Path) -> Result<(u16, String), String
 
 /// The upload's census: A boots, B is sent, the device restarts into the
 /// swap and the engine stops there (no reset allowed), keeping the flash.
-fn upload_census(setup: &Setup, images: &Images, dir: &Path) -> Result<Vec<Op>, String> {
+fn upload_census(
+    setup: &Setup,
+    board: Board,
+    images: &Images,
+    dir: &Path,
+) -> Result<Vec<Op>, String> {
     let (census, marked) = (dir.join("upload.census"), dir.join("marked.flash"));
     let _ = std::fs::remove_file(&census);
     let (census_arg, marked_arg) = (census.display().to_string(), marked.display().to_string());
-    let extra = [
+    let mut extra = vec![
         "--flash-census",
         &census_arg,
         "--flash-out",
@@ -83,7 +102,8 @@ fn upload_census(setup: &Setup, images: &Images, dir: &Path) -> Result<Vec<Op>, 
         "--resets",
         "0",
     ];
-    let (mut d, _to, http) = crate::rehost::boot_elf("h743", setup, &images.a, &extra)?;
+    extra.extend(board.engine_options());
+    let (mut d, _to, http) = crate::rehost::boot_elf(engine(board)?, setup, &images.a, &extra)?;
     for (needle, within) in crate::rehost::ready() {
         d.wait_for(needle, within)?;
     }
@@ -105,24 +125,26 @@ fn upload_census(setup: &Setup, images: &Images, dir: &Path) -> Result<Vec<Op>, 
 }
 
 /// A deterministic run from the marked flash: the bootloader's swap,
-/// then B and the engine's robot ([`ROBOT`] messages in virtual time,
+/// then B and the engine's robot ([`robot_messages`] in virtual time,
 /// started again after a cut). With `cut`, the power fails at that operation. The
 /// engine's exit status and output.
 fn swap_run(
     setup: &Setup,
+    board: Board,
     images: &Images,
     dir: &Path,
     cut: Option<u64>,
     census: Option<&Path>,
 ) -> Result<(i32, String), String> {
     let engine = crate::rehost::build_engine()?;
-    let boot = crate::rehost::boot_image("h743")?;
+    let boot = crate::rehost::boot_image(self::engine(board)?)?;
     let mut cmd = Command::new(engine);
     // The log is read with A's table throughout: B is A with a newer
     // version string, so their RTT blocks and defmt tables are the same.
     cmd.current_dir(crate::workspace())
-        .args(["--board", "h743", "--elf"])
+        .args(["--board", self::engine(board)?, "--elf"])
         .arg(&images.a)
+        .args(board.engine_options())
         .arg("--boot")
         .arg(&boot)
         .arg("--flash-in")
@@ -134,7 +156,12 @@ fn swap_run(
         ))
         .arg("--gsi")
         .arg(&setup.gsi)
-        .args(["--robot", &ROBOT.to_string(), "--log-prefix", "device: "])
+        .args([
+            "--robot",
+            &robot_messages(board).to_string(),
+            "--log-prefix",
+            "device: ",
+        ])
         // A swap and a swap back at the reset clock are about 6e9
         // cycles: a bootloader that never starts an image ends the run
         // here, not never.
@@ -195,13 +222,14 @@ fn tail<'a>(lines: impl DoubleEndedIterator<Item = &'a str>) -> String {
 /// confirming itself, must answer).
 fn swap_cut(
     setup: &Setup,
+    board: Board,
     images: &Images,
     dir: &Path,
     phase: Phase,
     n: u64,
     what: &str,
 ) -> Verdict {
-    let (code, log) = swap_run(setup, images, dir, Some(n), None)?;
+    let (code, log) = swap_run(setup, board, images, dir, Some(n), None)?;
     let robot = log
         .lines()
         .rev()
@@ -225,7 +253,8 @@ fn swap_cut(
         Phase::Confirm => is(&images.a_version) || is(&images.b_version),
         _ => is(&images.b_version),
     };
-    let all = format!("sent {ROBOT} answered {ROBOT} late 0 lost 0 wrong 0");
+    let n = robot_messages(board);
+    let all = format!("sent {n} answered {n} late 0 lost 0 wrong 0");
     if code == 0 && whole && confirmed && robot.contains(&all) {
         Ok(line)
     } else {
@@ -238,14 +267,11 @@ fn swap_cut(
 
 /// A cut in the upload: A must come back, answer the robot, and take B
 /// again.
-fn upload_cut(setup: &Setup, images: &Images, n: u64, what: &str) -> Verdict {
+fn upload_cut(setup: &Setup, board: Board, images: &Images, n: u64, what: &str) -> Verdict {
     let cut = n.to_string();
-    let (mut d, to, http) = crate::rehost::boot_elf(
-        "h743",
-        setup,
-        &images.a,
-        &["--power-cut", &cut, "--resets", "2"],
-    )?;
+    let mut extra = vec!["--power-cut", &cut, "--resets", "2"];
+    extra.extend(board.engine_options());
+    let (mut d, to, http) = crate::rehost::boot_elf(engine(board)?, setup, &images.a, &extra)?;
     for (needle, within) in crate::rehost::ready() {
         d.wait_for(needle, within)?;
     }
@@ -305,23 +331,27 @@ fn summary(ops: &[Op], runs: &[Run]) {
 
 /// Both censuses, then every cut; each verdict printed as it comes. `Err`
 /// when a cut did not end as it must (every cut is still made).
-pub fn run_all(setup: &Setup, all: bool) -> Result<(), String> {
-    let images = update_swap::build(setup, Board::H743)?;
-    let dir = work_dir()?;
-    let map = crate::boards::flash_map(&crate::boards::BOARDS[1])?;
+pub fn run_all(setup: &Setup, board: Board, all: bool) -> Result<(), String> {
+    let nucleo = board
+        .nucleo()
+        .ok_or_else(|| format!("{board:?}: the power is cut on a rehosted NUCLEO only"))?;
+    let images = update_swap::build(setup, board)?;
+    let dir = work_dir()?.join(engine(board)?);
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let map = crate::boards::flash_map(nucleo)?;
     let partitions = crate::flash_map::partitions(&map)?;
     println!(
         "== census of the upload: A ({}) boots, B ({}) is sent and marked",
         images.a_version, images.b_version
     );
-    let upload = upload_census(setup, &images, &dir)?;
+    let upload = upload_census(setup, board, &images, &dir)?;
     let upload_runs = runs(&upload, &partitions);
     summary(&upload, &upload_runs);
     println!(
         "== census of the swap: from that flash, the bootloader swaps B in, B answers the robot and confirms itself"
     );
     let census = dir.join("swap.census");
-    let (code, log) = swap_run(setup, &images, &dir, None, Some(&census))?;
+    let (code, log) = swap_run(setup, board, &images, &dir, None, Some(&census))?;
     if code != 0 {
         return Err(format!(
             "the swap without a cut failed (exit {code}):\n  {}",
@@ -345,11 +375,11 @@ pub fn run_all(setup: &Setup, all: bool) -> Result<(), String> {
         }
     };
     for (n, what) in points(&upload_runs, Phase::Upload, all) {
-        judge(upload_cut(setup, &images, n, &what));
+        judge(upload_cut(setup, board, &images, n, &what));
     }
     for phase in [Phase::Swap, Phase::Confirm] {
         for (n, what) in points(&swap_runs, phase, all) {
-            judge(swap_cut(setup, &images, &dir, phase, n, &what));
+            judge(swap_cut(setup, board, &images, &dir, phase, n, &what));
         }
     }
     if failed == 0 {

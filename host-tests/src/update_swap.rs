@@ -19,14 +19,17 @@
 //! The device's log is decoded with A's table throughout: C's lines may
 //! come out garbled (their table differs), which judges nothing here.
 //!
-//! `--board h743` runs the same course on the rehosted NUCLEO-H743ZI2
-//! (`cargo rehost`'s engine, paced to the wall clock: the chip's flash
-//! model takes the datasheet's times, so each swap takes about a minute).
-//! A product board takes no demonstration key: the three images are built
-//! with a key pair made for this run (`target/update-swap/h743-key`,
-//! never the user's).
+//! `--board h743` and `--board f767` run the same course on a rehosted
+//! NUCLEO (`cargo rehost`'s engine, paced to the wall clock: the chip's
+//! flash model takes the datasheet's times, so each swap takes about a
+//! minute; the F767's flash in dual-bank mode, as its README has the user
+//! set it, after a check of A in the factory's single-bank mode, where it
+//! must serve the robot and refuse the upload with 405, saying why). A product board takes no demonstration key: the three images
+//! are built with a key pair made for this run
+//! (`target/update-swap/<board>-key`, never the user's).
 
 mod images;
+mod single_bank;
 
 pub use images::{build, Board, Images};
 
@@ -305,17 +308,33 @@ pub fn run_all(setup: &Setup, board: Board) -> Result<(), String> {
             let (d, to, http) = qemu::boot_local(images.a.clone(), &setup.device)?;
             (Box::new(d), to, http)
         }
-        Board::H743 => {
-            let b = &crate::boards::BOARDS[1];
-            println!("== the NUCLEO-H743ZI2's flash ({}), rehosted:", b.flash_map);
+        Board::H743 | Board::F767 => {
+            let (Some(b), Some(engine)) = (board.nucleo(), board.rehosted()) else {
+                return Err(format!("{board:?}: not a rehosted board"));
+            };
+            println!(
+                "== the {}'s flash ({}), rehosted:",
+                b.name.to_uppercase(),
+                b.flash_map
+            );
             let boot = crate::boards::build_boot(b)?;
             for line in crate::flash_map::table(&crate::boards::flash_map(b)?, &boot, &images.a)? {
                 println!("   {line}");
             }
+            if board == Board::F767 {
+                match single_bank::check(setup, &images) {
+                    Ok(line) => println!("update-swap: ok   {line}"),
+                    Err(line) => {
+                        println!("update-swap: FAIL {line}");
+                        return Err(line);
+                    }
+                }
+            }
             // Three restarts: B's swap, C's, and the watchdog's reset of
             // C; one more allowed, so that a fourth stops the run.
-            let (d, to, http) =
-                crate::rehost::boot_elf("h743", setup, &images.a, &["--resets", "4"])?;
+            let mut options = vec!["--resets", "4"];
+            options.extend(board.engine_options());
+            let (d, to, http) = crate::rehost::boot_elf(engine, setup, &images.a, &options)?;
             let mut d: Box<dyn Device> = Box::new(d);
             for (needle, within) in crate::rehost::ready() {
                 d.wait_for(needle, within)?;

@@ -1,5 +1,6 @@
-//! `cargo power-cut [-- --all]`: the power cut at a flash operation of an
-//! update on the rehosted NUCLEO-H743ZI2 (issue 43), and the board after
+//! `cargo power-cut [-- --board f767] [-- --all]`: the power cut at a
+//! flash operation of an update on a rehosted NUCLEO (issue 43: the
+//! NUCLEO-H743ZI2 by default, the F767 in dual-bank mode), and the board after
 //! it: the upload's cut must leave the old image answering and taking
 //! the file again, the swap's must be finished by the bootloader and the
 //! new image answer. See `host_tests::power_cut`.
@@ -16,7 +17,8 @@ use std::process::ExitCode;
 enum Which {
     /// The NUCLEO-H743ZI2 on the model of its chip (`cargo rehost`).
     H743,
-    /// The NUCLEO-F767ZI: refused (it takes no update yet).
+    /// The NUCLEO-F767ZI on the model of its chip, its flash in
+    /// dual-bank mode.
     F767,
 }
 
@@ -26,7 +28,7 @@ enum Which {
     about = "Cut the power at flash operations of an update on a rehosted NUCLEO, and check the board after each"
 )]
 struct Args {
-    /// The board (only the H743 takes updates).
+    /// The board.
     #[arg(long, value_enum, default_value_t = Which::H743)]
     board: Which,
     /// Cut at the first and the last operation of every run of one kind
@@ -38,12 +40,10 @@ struct Args {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    if let Which::F767 = args.board {
-        eprintln!(
-            "error: the NUCLEO-F767ZI takes no update yet (see cargo update-swap -- --board f767)"
-        );
-        return ExitCode::from(2);
-    }
+    let board = match args.board {
+        Which::H743 => host_tests::update_swap::Board::H743,
+        Which::F767 => host_tests::update_swap::Board::F767,
+    };
     if let Err(e) = host_tests::rehost::ensure_build_tools(&mut std::io::stdout()) {
         eprintln!("error: {e}");
         return ExitCode::from(2);
@@ -55,7 +55,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match power_cut::run_all(&setup, args.all) {
+    match power_cut::run_all(&setup, board, args.all) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");

@@ -1,5 +1,5 @@
-//! `cargo update-swap [-- --board h743]`: an update's whole course on
-//! the QEMU board, or on the rehosted NUCLEO-H743ZI2 (issue 43): a newer
+//! `cargo update-swap [-- --board h743|f767]`: an update's whole course
+//! on the QEMU board, or on a rehosted NUCLEO (issue 43): a newer
 //! image sent while the robot runs, swapped in by the bootloader once the
 //! robot stops, confirmed at OPERATING; then an image that cannot talk to
 //! the robot, rolled back by the watchdog after its trial. See
@@ -18,8 +18,8 @@ enum Which {
     Qemu,
     /// The NUCLEO-H743ZI2 on the model of its chip (`cargo rehost`).
     H743,
-    /// The NUCLEO-F767ZI: refused (its single flash bank cannot take an
-    /// update yet).
+    /// The NUCLEO-F767ZI on the model of its chip, its flash in
+    /// dual-bank mode.
     F767,
 }
 
@@ -39,17 +39,14 @@ fn main() -> ExitCode {
     let board = match args.board {
         Which::Qemu => update_swap::Board::Qemu,
         Which::H743 => update_swap::Board::H743,
-        Which::F767 => {
-            eprintln!(
-                "error: the NUCLEO-F767ZI takes no update yet: in its single-bank mode a sector erase stalls every fetch from flash for longer than the watchdog's 2 s (hal-board's nucleo::update says more); try --board h743"
-            );
-            return ExitCode::from(2);
-        }
+        Which::F767 => update_swap::Board::F767,
     };
     let mut out = std::io::stdout();
     let tools = match board {
         update_swap::Board::Qemu => qemu::ensure_qemu(&mut out),
-        update_swap::Board::H743 => host_tests::rehost::ensure_build_tools(&mut out),
+        update_swap::Board::H743 | update_swap::Board::F767 => {
+            host_tests::rehost::ensure_build_tools(&mut out)
+        }
     };
     if let Err(e) = tools {
         eprintln!("error: {e}");

@@ -16,6 +16,9 @@ pub enum Board {
     Qemu,
     /// The NUCLEO-H743ZI2 on the model of its chip (`cargo rehost`).
     H743,
+    /// The NUCLEO-F767ZI on the model of its chip, its flash in dual-bank
+    /// mode (`cargo rehost -- --dual-bank`).
+    F767,
 }
 
 impl Board {
@@ -24,28 +27,56 @@ impl Board {
         match self {
             Board::Qemu => "mps2-an500",
             Board::H743 => "nucleo-h743zi",
+            Board::F767 => "nucleo-f767zi",
+        }
+    }
+
+    /// The engine's name for a rehosted board (`None`: QEMU's).
+    pub(crate) fn rehosted(self) -> Option<&'static str> {
+        match self {
+            Board::Qemu => None,
+            Board::H743 => Some("h743"),
+            Board::F767 => Some("f767"),
+        }
+    }
+
+    /// The engine's options the board always runs with: the F767's
+    /// flash in the dual-bank mode its updates need.
+    pub(crate) fn engine_options(self) -> &'static [&'static str] {
+        match self {
+            Board::F767 => &["--dual-bank"],
+            Board::Qemu | Board::H743 => &[],
+        }
+    }
+
+    /// Its row in `cargo boards`' table (`None`: QEMU's).
+    pub(crate) fn nucleo(self) -> Option<&'static crate::boards::Board> {
+        match self {
+            Board::Qemu => None,
+            Board::F767 => Some(&crate::boards::BOARDS[0]),
+            Board::H743 => Some(&crate::boards::BOARDS[1]),
         }
     }
 
     /// The longest the confirmation may keep the status page away: on
-    /// the H743 it erases a 128K sector of the state partition, 2 s of
+    /// a NUCLEO it erases a 128K sector of the state partition, 2-4 s of
     /// the chip's time during which the background executor (the page's)
     /// polls the erase; the engine emulates that polling slower than the
     /// wall clock.
     pub(crate) fn flash_wait(self) -> Duration {
         match self {
             Board::Qemu => Duration::from_secs(10),
-            Board::H743 => Duration::from_secs(60),
+            Board::H743 | Board::F767 => Duration::from_secs(60),
         }
     }
 
     /// The longest a restart with a swap (or a rollback's) may take until
-    /// the device answers again: the H743's bootloader erases and writes
+    /// the device answers again: a NUCLEO's bootloader erases and writes
     /// six 128K pages several times over at the datasheet's times.
     pub(crate) fn swap_wait(self) -> Duration {
         match self {
             Board::Qemu => Duration::from_secs(60),
-            Board::H743 => Duration::from_secs(360),
+            Board::H743 | Board::F767 => Duration::from_secs(360),
         }
     }
 }
@@ -105,8 +136,8 @@ fn other_layout(gsi: &Path, to: &Path) -> Result<(), String> {
 }
 
 /// Builds A, B and C for `board` and signs B and C: with the QEMU
-/// board's demonstration key, or for the H743 with a key pair made for
-/// this run and built into all three.
+/// board's demonstration key, or for a NUCLEO with a key pair made for
+/// this run (`target/update-swap/<board>-key`) and built into all three.
 pub fn build(setup: &Setup, board: Board) -> Result<Images, String> {
     let work = qemu::target_dir().join("update-swap");
     std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
@@ -115,8 +146,8 @@ pub fn build(setup: &Setup, board: Board) -> Result<Images, String> {
             crate::workspace().join("firmware/rri-update/demo-key/update-key"),
             None,
         ),
-        Board::H743 => {
-            let dir = work.join("h743-key");
+        Board::H743 | Board::F767 => {
+            let dir = work.join(format!("{}-key", board.rehosted().unwrap_or("qemu")));
             let (secret, public) = (dir.join("update-key"), dir.join("update-key.pub"));
             if !(secret.is_file() && public.is_file()) {
                 let _ = std::fs::remove_dir_all(&dir);
@@ -130,10 +161,12 @@ pub fn build(setup: &Setup, board: Board) -> Result<Images, String> {
     let features = match board {
         Board::Qemu => qemu::BOARD_FEATURES,
         Board::H743 => "board,hal-board/nucleo-h743zi",
+        Board::F767 => "board,hal-board/nucleo-f767zi",
     };
     let dir = match board {
         Board::Qemu => "qemu",
         Board::H743 => "update-swap-h743",
+        Board::F767 => "update-swap-f767",
     };
     let image = |gsi: Option<&Path>, version: Option<&str>, name: &str| {
         let mut env: Vec<(&str, &str)> = Vec::new();
@@ -147,7 +180,7 @@ pub fn build(setup: &Setup, board: Board) -> Result<Images, String> {
     };
     let a = match board {
         Board::Qemu => qemu::build_firmware(&[], setup.build_gsi.as_deref(), "swap-a")?,
-        Board::H743 => image(setup.build_gsi.as_deref(), None, "swap-a")?,
+        Board::H743 | Board::F767 => image(setup.build_gsi.as_deref(), None, "swap-a")?,
     };
     let a_version = image_version(&std::fs::read(&a).map_err(|e| e.to_string())?)?
         .ok_or("image A reports no version")?;
