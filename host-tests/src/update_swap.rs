@@ -14,7 +14,10 @@
 //!    one patch newer again) is sent and swapped in; the robot's messages
 //!    reach it and it never reaches OPERATING, so after its trial it stops
 //!    feeding the watchdog, and the watchdog's reset brings B back;
-//! 6. the robot runs once more and B answers every message.
+//! 6. the robot runs once more and B answers every message;
+//! 7. (the QEMU board) the controller's configuration changes: C is sent
+//!    again and swapped in, answers a robot that speaks its layout, and
+//!    confirms itself at OPERATING.
 //!
 //! The device's log is decoded with A's table throughout: C's lines may
 //! come out garbled (their table differs), which judges nothing here.
@@ -283,7 +286,58 @@ pub fn course(
         "B serves the robot after the rollback",
         robot(setup, to, 300, 30_000),
     ))?;
+    if board == Board::Qemu {
+        step(new_layout(setup, board, images, to, http))?;
+    }
     Ok(())
+}
+
+/// The course's last step: the controller's configuration changed; C, built from it, is sent
+/// again, swapped in, answers a robot that speaks its layout, and
+/// confirms itself at OPERATING. On the QEMU board alone: the NUCLEOs'
+/// swaps take minutes of CI each, and nothing in this step is the chip's.
+fn new_layout(
+    setup: &Setup,
+    board: Board,
+    images: &Images,
+    to: SocketAddr,
+    http: SocketAddr,
+) -> Step {
+    let file = std::fs::read(&images.c_file).map_err(|e| e.to_string())?;
+    let sent = update_device::upload(
+        &format!("http://{http}/"),
+        &file,
+        file.len(),
+        false,
+        &mut |_| {},
+    )?;
+    if sent.status != 200 {
+        return Err(format!(
+            "C sent again: {} {}",
+            sent.status,
+            update_device::answer(&sent)
+        ));
+    }
+    until(http, board.swap_wait(), &|s| s.version == images.c_version)?;
+    let mut changed = setup.clone();
+    changed.gsi = images.c_gsi.clone();
+    changed.device = gsi_config::load(&changed.gsi, setup.device_name.as_deref())
+        .map_err(|f| f.to_string())?
+        .device;
+    let (answered, of) = robot(&changed, to, 300, 40_000)?;
+    let s = until(http, board.flash_wait(), &|s| {
+        s.image.as_deref() == Some("confirmed")
+    })?;
+    if answered == of && of > 0 && s.version == images.c_version {
+        Ok(format!(
+            "the controller's configuration changed: C sent again, swapped in, {answered} of {of} messages in its layout answered, version {} confirmed at OPERATING",
+            s.version
+        ))
+    } else {
+        Err(format!(
+            "after C was sent again: {answered} of {of} messages in its layout answered; the device says {s:?}"
+        ))
+    }
 }
 
 /// Boots A on `board` and runs the course; every step's line printed.

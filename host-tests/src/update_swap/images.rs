@@ -89,6 +89,8 @@ pub struct Images {
     pub b_version: String,
     pub c_file: PathBuf,
     pub c_version: String,
+    /// The GSI folder C is built from (the robot's property renamed).
+    pub c_gsi: PathBuf,
 }
 
 /// `version` with its patch number raised by `by`.
@@ -214,5 +216,6 @@ pub fn build(setup: &Setup, board: Board) -> Result<Images, String> {
         b_version,
         c_file,
         c_version,
+        c_gsi: gsi_c,
     })
 }
