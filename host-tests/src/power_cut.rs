@@ -31,7 +31,6 @@
 
 use crate::device::Device;
 use crate::setup::Setup;
-use crate::update_device;
 use crate::update_swap::{self, Board, Images};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -70,19 +69,6 @@ fn work_dir() -> Result<PathBuf, String> {
     Ok(dir)
 }
 
-/// `file` sent with `PUT /firmware`: the status and the device's answer.
-fn send(http: std::net::SocketAddr, file: &Path) -> Result<(u16, String), String> {
-    let bytes = std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
-    let r = update_device::upload(
-        &format!("http://{http}/"),
-        &bytes,
-        bytes.len(),
-        false,
-        &mut |_| {},
-    )?;
-    Ok((r.status, update_device::answer(&r)))
-}
-
 /// The upload's census: A boots, B is sent, the device restarts into the
 /// swap and the engine stops there (no reset allowed), keeping the flash.
 fn upload_census(
@@ -108,7 +94,7 @@ fn upload_census(
         d.wait_for(needle, within)?;
     }
     let http = http.ok_or("the board's diagnostics are not forwarded")?;
-    let (status, said) = send(http, &images.b_file)?;
+    let (status, said) = update_swap::send_file(http, &images.b_file)?;
     if !(status == 200 && said.contains("checked and marked")) {
         return Err(format!("B's upload: {status} {said}"));
     }
@@ -277,14 +263,14 @@ fn upload_cut(setup: &Setup, board: Board, images: &Images, n: u64, what: &str) 
     }
     let http = http.ok_or("the board's diagnostics are not forwarded")?;
     // The power fails during the upload: its connection dies with it.
-    let first = send(http, &images.b_file);
+    let first = update_swap::send_file(http, &images.b_file);
     d.wait_for(
         &format!("power cut at flash operation {n}"),
         Duration::from_secs(120),
     )?;
     let s = update_swap::until(http, Duration::from_secs(120), &|s| !s.version.is_empty())?;
     let answered = update_swap::robot(setup, to, 300, 50_000);
-    let again = send(http, &images.b_file);
+    let again = update_swap::send_file(http, &images.b_file);
     let log = Box::new(d).stop();
     let line = format!(
         "upload, operation {n} ({what}): the cut upload {}; back running {} (last reset: {}); {}; B sent again: {}",

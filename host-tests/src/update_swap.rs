@@ -79,6 +79,20 @@ fn all_answered(what: &str, got: Result<(u64, u64), String>) -> Step {
     }
 }
 
+/// `file` sent whole with `PUT /firmware`: the device's status and its
+/// one-line answer.
+pub(crate) fn send_file(http: SocketAddr, file: &Path) -> Result<(u16, String), String> {
+    let bytes = std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    let r = update_device::upload(
+        &format!("http://{http}/"),
+        &bytes,
+        bytes.len(),
+        false,
+        &mut |_| {},
+    )?;
+    Ok((r.status, update_device::answer(&r)))
+}
+
 /// Polls `/status.json` until `done` holds, up to `wait`.
 pub(crate) fn until(
     http: SocketAddr,
@@ -175,29 +189,13 @@ pub fn course(
         std::thread::spawn(move || robot(&setup, to, 1000, 1))
     };
     std::thread::sleep(Duration::from_secs(1));
-    let sent = update_device::upload(
-        &format!("http://{http}/"),
-        &std::fs::read(&images.b_file).map_err(|e| e.to_string())?,
-        std::fs::metadata(&images.b_file)
-            .map_err(|e| e.to_string())?
-            .len() as usize,
-        false,
-        &mut |_| {},
-    )?;
-    let said = update_device::answer(&sent);
-    step(
-        if sent.status == 200 && said.contains("checked and marked") {
-            Ok(format!(
-                "B sent while the robot runs: {} {said}",
-                sent.status
-            ))
-        } else {
-            Err(format!(
-                "B sent while the robot runs: {} {said}",
-                sent.status
-            ))
-        },
-    )?;
+    let (status, said) = send_file(http, &images.b_file)?;
+    let line = format!("B sent while the robot runs: {status} {said}");
+    step(if status == 200 && said.contains("checked and marked") {
+        Ok(line)
+    } else {
+        Err(line)
+    })?;
     let ran = robot_run
         .join()
         .map_err(|_| "the robot's thread panicked")?;
@@ -303,20 +301,9 @@ fn new_layout(
     to: SocketAddr,
     http: SocketAddr,
 ) -> Step {
-    let file = std::fs::read(&images.c_file).map_err(|e| e.to_string())?;
-    let sent = update_device::upload(
-        &format!("http://{http}/"),
-        &file,
-        file.len(),
-        false,
-        &mut |_| {},
-    )?;
-    if sent.status != 200 {
-        return Err(format!(
-            "C sent again: {} {}",
-            sent.status,
-            update_device::answer(&sent)
-        ));
+    let (status, said) = send_file(http, &images.c_file)?;
+    if status != 200 {
+        return Err(format!("C sent again: {status} {said}"));
     }
     until(http, board.swap_wait(), &|s| s.version == images.c_version)?;
     let mut changed = setup.clone();

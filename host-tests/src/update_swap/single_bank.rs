@@ -4,7 +4,7 @@
 //! with 405, its flash untouched. The course itself needs the dual-bank
 //! mode its README has the user set.
 
-use super::{robot, Images, Step};
+use super::{robot, send_file, Images, Step};
 use crate::device::Device;
 use crate::setup::Setup;
 use std::time::Duration;
@@ -24,25 +24,15 @@ pub fn check(setup: &Setup, images: &Images) -> Step {
         }
         d.wait_for(SAID, Duration::from_secs(5))?;
         let http = http.ok_or("the board's diagnostics are not forwarded")?;
-        let file = std::fs::read(&images.b_file).map_err(|e| e.to_string())?;
-        let sent = crate::update_device::upload(
-            &format!("http://{http}/"),
-            &file,
-            file.len(),
-            false,
-            &mut |_| {},
-        )?;
+        let (status, said) = send_file(http, &images.b_file)?;
         let (answered, of) = robot(setup, to, 300, 1)?;
-        if sent.status == 405 && answered == of && of > 0 {
+        if status == 405 && answered == of && of > 0 {
             Ok(format!(
-                "in the factory's single-bank mode A starts, says why it takes no update, answers B's upload {} and {answered} of {of} robot messages",
-                sent.status
+                "in the factory's single-bank mode A starts, says why it takes no update, answers B's upload {status} and {answered} of {of} robot messages"
             ))
         } else {
             Err(format!(
-                "in single-bank mode: B's upload answered {} ({}), {answered} of {of} robot messages answered",
-                sent.status,
-                crate::update_device::answer(&sent)
+                "in single-bank mode: B's upload answered {status} ({said}), {answered} of {of} robot messages answered"
             ))
         }
     })();
