@@ -62,22 +62,18 @@ fn sector(addr: u32) -> Option<(u8, u32)> {
             bank = region.bank;
             index = 0;
         }
-        let base = match region.bank {
-            FlashBank::Bank1 => flash,
-            FlashBank::Bank2 => bank2,
+        let (bank_base, bank_bit) = match region.bank {
+            FlashBank::Bank1 => (flash, 0),
+            FlashBank::Bank2 => (bank2, 1 << 4),
             _ => return None,
-        } + region.offset;
+        };
+        let base = bank_base + region.offset;
         if (base..base + region.size).contains(&addr) {
             let offset = addr - base;
             if !offset.is_multiple_of(region.erase_size) {
                 return None;
             }
             let n = u8::try_from(offset / region.erase_size).ok()?;
-            let bank_bit = match region.bank {
-                FlashBank::Bank1 => 0,
-                FlashBank::Bank2 => 1 << 4,
-                _ => return None,
-            };
             return Some((bank_bit | (index + n), region.erase_size));
         }
         index += region.sectors();
