@@ -197,10 +197,31 @@ impl Probe {
             let out = counter()();
             let (mut record, rx) = critical_section::with(|cs| PENDING_RECORD.borrow(cs).get());
             record.full = out.wrapping_sub(rx);
+            record.held_in = HELD_IN.load(Ordering::Relaxed);
+            record.held_out = HELD_OUT.load(Ordering::Relaxed);
             push(record);
         }
     }
+
+    /// The guard: a robot message is in, its hold starts (the counts of
+    /// what the hold turns away start again).
+    pub(crate) fn hold_starts() {
+        HELD_IN.store(0, Ordering::Relaxed);
+        HELD_OUT.store(0, Ordering::Relaxed);
+    }
+
+    /// The guard's hold turned the runner away: from taking a frame in
+    /// (`out` false), or from sending one.
+    pub(crate) fn held(out: bool) {
+        let count = if out { &HELD_OUT } else { &HELD_IN };
+        count.fetch_add(1, Ordering::Relaxed);
+    }
 }
+
+/// What the hold of the message in the works turned away: the runner's
+/// ingress, its frames out ([`Record::held_in`], [`Record::held_out`]).
+static HELD_IN: AtomicU32 = AtomicU32::new(0);
+static HELD_OUT: AtomicU32 = AtomicU32::new(0);
 
 /// Set when an answer is queued: the reply's first frame out completes its
 /// record.
@@ -217,6 +238,8 @@ static PENDING_RECORD: Mutex<Cell<(Record, u32)>> = Mutex::new(Cell::new((
         guard: 0,
         smoltcp: 0,
         before: 0,
+        held_in: 0,
+        held_out: 0,
     },
     0,
 )));
@@ -248,6 +271,8 @@ pub fn message(bytes: usize, answered_to: Option<u16>, counts: (u32, u32)) {
         guard: layers.guard,
         smoltcp: layers.smoltcp,
         before: seen.before,
+        held_in: 0,
+        held_out: 0,
     };
     match rx {
         Some(rx) => {

@@ -34,6 +34,16 @@ pub struct Record {
     /// Every other frame since the last message, all layers (the earlier
     /// fragments: work done before the full span starts).
     pub before: u32,
+    /// Passes of the network runner in the full span that the fragment
+    /// guard's hold kept from taking a frame in: each is a poll of the
+    /// stack (its ingress turned away, its egress pass made) that the
+    /// message waited through. What a client on the diagnostics costs the
+    /// full path shows here.
+    pub held_in: u32,
+    /// Frames the stack built in the span and the hold kept from leaving
+    /// (the driver refused them a token; smoltcp built each segment's
+    /// header before asking).
+    pub held_out: u32,
 }
 
 impl Record {
@@ -61,12 +71,14 @@ impl Record {
                 "guard" => (7, &mut r.guard),
                 "smoltcp" => (8, &mut r.smoltcp),
                 "before" => (9, &mut r.before),
+                "held_in" => (10, &mut r.held_in),
+                "held_out" => (11, &mut r.held_out),
                 _ => continue,
             };
             *slot = value.parse().ok()?;
             seen |= 1 << bit;
         }
-        (seen == (1 << 10) - 1).then_some(r)
+        (seen == (1 << 12) - 1).then_some(r)
     }
 }
 
@@ -77,7 +89,7 @@ mod tests {
     #[test]
     fn a_logged_line_reads_back_whole() {
         let r = Record::parse(
-            "[    1.000 INFO ] bench bytes=698 answered=true compute=11420 full=13000 frames=1 read=70 driver=90 guard=210 smoltcp=600 before=0 lost=0",
+            "[    1.000 INFO ] bench bytes=698 answered=true compute=11420 full=13000 frames=1 read=70 driver=90 guard=210 smoltcp=600 before=0 held_in=2 held_out=1 lost=0",
         );
         assert_eq!(
             r,
@@ -92,20 +104,26 @@ mod tests {
                 guard: 210,
                 smoltcp: 600,
                 before: 0,
+                held_in: 2,
+                held_out: 1,
             })
         );
     }
 
     #[test]
     fn a_line_missing_a_field_or_garbled_is_not_a_record() {
-        // An image older than the layers.
+        // An image older than the layers, or than the hold's counts.
+        assert_eq!(
+            Record::parse("[ 1.0 INFO ] bench bytes=698 answered=true compute=1 full=2 frames=1 read=1 driver=1 guard=1 smoltcp=1 before=1 lost=0"),
+            None
+        );
         assert_eq!(
             Record::parse("[ 1.0 INFO ] bench bytes=698 answered=true compute=1 full=2 lost=0"),
             None
         );
         assert_eq!(
             Record::parse(
-                "] bench bytes=x answered=true compute=1 full=2 frames=1 read=1 driver=1 guard=1 smoltcp=1 before=1"
+                "] bench bytes=x answered=true compute=1 full=2 frames=1 read=1 driver=1 guard=1 smoltcp=1 before=1 held_in=0 held_out=0"
             ),
             None
         );

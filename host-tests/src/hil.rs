@@ -447,9 +447,9 @@ mod tests {
     fn figures_come_from_the_log() {
         let log: Vec<String> = [
             "[0.0 INFO ] codec manual bytes=648 ours=11 tokenizer=7 baseline=21",
-            "[0.1 INFO ] bench bytes=698 answered=true compute=1000 full=1500 frames=1 read=1 driver=1 guard=2 smoltcp=3 before=0 lost=0",
-            "[0.1 INFO ] bench bytes=698 answered=true compute=3000 full=3500 frames=1 read=1 driver=1 guard=2 smoltcp=3 before=0 lost=0",
-            "[0.1 INFO ] bench bytes=20 answered=false compute=50 full=0 frames=1 read=1 driver=1 guard=2 smoltcp=3 before=0 lost=0",
+            "[0.1 INFO ] bench bytes=698 answered=true compute=1000 full=1500 frames=1 read=1 driver=1 guard=2 smoltcp=3 before=0 held_in=2 held_out=0 lost=0",
+            "[0.1 INFO ] bench bytes=698 answered=true compute=3000 full=3500 frames=1 read=1 driver=1 guard=2 smoltcp=3 before=0 held_in=2 held_out=0 lost=0",
+            "[0.1 INFO ] bench bytes=20 answered=false compute=50 full=0 frames=1 read=1 driver=1 guard=2 smoltcp=3 before=0 held_in=2 held_out=0 lost=0",
             "[1.0 INFO ] stack: boot 50000 running 9000 of 87776 bytes, 43% margin",
             "[1.0 INFO ] counters: messages: received 4 answered 3 | dropped: foreign 0 invalid_source 0 throttled 0 decode 1 | transport: send_errors 0 tcp_stalled 0 | ids: lost 0 duplicates 0 reordered 0 | supervision: timeouts 0 | engine latency (message in to reply ready; the page and /metrics show the driver's, frame to frame) us: max 9 mean 5 | fragments: fragments 0 reassembled 0 oversize 0 unwanted 0 malformed 0 no_buffer 0 duplicate 0 timed_out 0 evicted 0 spoiled 0 | controller: in 4 incomplete 0 dropped 0 | nic n/a: rx_frames 0 rx_dropped 0 status_full 0 fifo_max 0",
         ]

@@ -361,3 +361,69 @@ fn payload_buffers_sit_as_a_payload_sits_in_a_frame() {
         assert_eq!(at % 4, 2);
     }
 }
+
+/// The network runner as the boards run it (`guard::run_gated`): passed
+/// over while the cycle works on a robot message, since such a pass can
+/// neither take a frame in nor send one and only costs the message's full
+/// path (about 1,400 instructions a pass on the QEMU board, measured with
+/// qemu-bench's `held_in`); run again when the cycle's turn ends, or when
+/// the hold's bound passes for a cycle that never ends its turn.
+#[test]
+fn the_runner_is_passed_over_while_the_cycle_works_on_a_message() {
+    use embassy_time::{Duration, MockDriver};
+    use rri_firmware::fragments::guard::run_gated;
+    use rri_firmware::fragments::{Link, HOLD_MAX_US};
+    use std::cell::Cell;
+    use std::future::Future;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Arc;
+    use std::task::{Context, Poll, Wake, Waker};
+
+    struct Count(AtomicUsize);
+    impl Wake for Count {
+        fn wake(self: Arc<Self>) {
+            self.0.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+    let _clock = memnet::mock_clock();
+    MockDriver::get().reset();
+    let now = || embassy_time::Instant::now().as_micros();
+    let wakes = Arc::new(Count(AtomicUsize::new(0)));
+    let waker = Waker::from(wakes.clone());
+    let link = Link::new();
+    let passes = Cell::new(0);
+    let runner = core::future::poll_fn(|_| {
+        passes.set(passes.get() + 1);
+        Poll::<()>::Pending
+    });
+    let mut gated = std::pin::pin!(run_gated(&link, runner));
+    let mut poll = || {
+        assert!(gated
+            .as_mut()
+            .poll(&mut Context::from_waker(&waker))
+            .is_pending())
+    };
+    poll();
+    assert_eq!(passes.get(), 1, "nothing held: the runner runs");
+    link.message_in(now());
+    poll();
+    poll();
+    assert_eq!(passes.get(), 1, "passed over while the cycle works");
+    let before = wakes.0.load(Ordering::Relaxed);
+    link.turn_done(true);
+    assert!(
+        wakes.0.load(Ordering::Relaxed) > before,
+        "the end of the turn wakes the runner"
+    );
+    poll();
+    assert_eq!(passes.get(), 2, "the reply's pass runs");
+    // A message the cycle never ends its turn for: the hold's bound lets
+    // the runner go.
+    link.reply_out(now());
+    link.message_in(now());
+    poll();
+    assert_eq!(passes.get(), 2);
+    MockDriver::get().advance(Duration::from_micros(HOLD_MAX_US));
+    poll();
+    assert_eq!(passes.get(), 3, "past the hold's bound the runner runs");
+}

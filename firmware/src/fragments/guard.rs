@@ -75,6 +75,27 @@ fn wake_at_hold_end(link: &Link, cx: &mut Context) {
     }
 }
 
+/// Runs the network runner `runner` (embassy-net's `Runner::run`), passing
+/// over every wake-up that comes while the cycle works on a robot message
+/// ([`Link::may_run`]): a frame arriving for anyone else, a socket's
+/// timer, another task touching its socket. Such a pass would find the
+/// guard refusing it both ways, and cost the message's full path what the
+/// stack's poll costs (its egress builds any segment due before the
+/// driver refuses it). The wake-up is not lost: the cycle's end of turn,
+/// or [`HOLD_MAX_US`](super::HOLD_MAX_US) at the latest, wakes the runner,
+/// which then does everything that came meanwhile.
+pub async fn run_gated<F: Future>(link: &Link, runner: F) -> F::Output {
+    let mut runner = core::pin::pin!(runner);
+    core::future::poll_fn(|cx| {
+        if !link.may_run(now_us, cx.waker()) {
+            wake_at_hold_end(link, cx);
+            return core::task::Poll::Pending;
+        }
+        runner.as_mut().poll(cx)
+    })
+    .await
+}
+
 /// Frames handed to the stack per poll of the network runner at most (a
 /// poll also ends after a datagram for the channel port): bounds how long
 /// a flood of other frames keeps the cycle waiting.
@@ -177,6 +198,7 @@ impl<T: embassy_net_driver::RxToken, const BUF: usize> embassy_net_driver::RxTok
         budget.to_channel |= to_channel;
         if to_channel || tcp {
             link.message_in(now);
+            Probe::hold_starts();
         }
         probe.end();
         r
@@ -204,6 +226,7 @@ impl<'d, D: Driver, const BUF: usize> Driver for FragmentGuard<'d, D, BUF> {
         // which ends the hold when done with it (a timer per message cost
         // the hostile worst case 1,300 instructions).
         if !link.may_receive(now, cx.waker()) {
+            Probe::held(false);
             return None;
         }
         // Stale sets go at every poll, not only when the next fragment
@@ -246,6 +269,7 @@ impl<'d, D: Driver, const BUF: usize> Driver for FragmentGuard<'d, D, BUF> {
         // The cycle works on a robot message: nothing leaves in front of
         // its reply (`Link::may_transmit`; the cycle wakes us).
         if link.is_holding() && !link.may_transmit(now_us(), cx.waker()) {
+            Probe::held(true);
             wake_at_hold_end(link, cx);
             return None;
         }

@@ -53,4 +53,10 @@ impl Probe {
 
     #[inline(always)]
     pub(crate) fn sent(_reply: bool) {}
+
+    #[inline(always)]
+    pub(crate) fn hold_starts() {}
+
+    #[inline(always)]
+    pub(crate) fn held(_out: bool) {}
 }

@@ -303,7 +303,7 @@ mod tests {
 
     #[test]
     fn a_bench_line_is_a_record_and_other_lines_are_not() {
-        let r = Record::parse("[1.234 INFO] bench bytes=740 answered=true compute=20766 full=29313 frames=2 read=111 driver=121 guard=414 smoltcp=2640 before=780 lost=0").unwrap();
+        let r = Record::parse("[1.234 INFO] bench bytes=740 answered=true compute=20766 full=29313 frames=2 read=111 driver=121 guard=414 smoltcp=2640 before=780 held_in=2 held_out=0 lost=0").unwrap();
         assert_eq!(
             (r.bytes, r.answered, r.compute, r.full, r.read, r.driver, r.guard, r.smoltcp),
             (740, true, 20766, 29313, 111, 121, 414, 2640)

@@ -238,7 +238,11 @@ pub fn with_udp_device<A>(
         embassy_net::new(guard, net_config(device_ip()), &mut resources, 0x5eed);
     let mut buffers = UdpBuffers::<{ layout::MAX_RECEIVE_LEN }, { layout::MAX_SEND_LEN }>::new();
     let mut monitor = ();
-    let mut net = pin!(runner.run());
+    // As the boards run it: passed over while the cycle works on a message.
+    let mut net = pin!(rri_firmware::fragments::guard::run_gated(
+        &link,
+        runner.run()
+    ));
     let cycle = Cycle {
         stack,
         port: layout::CHANNEL_PORT,

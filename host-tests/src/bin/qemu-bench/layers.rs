@@ -115,6 +115,7 @@ mod tests {
             guard: 200,
             smoltcp: 300,
             before: 50,
+            ..Record::default()
         };
         let s = Split::of(&r);
         let i = crate::INSTRUCTIONS_PER_COUNT;

@@ -25,6 +25,7 @@
 //! compares with `host-tests/bench/qemu-baseline.json`: exit 1 when a gated
 //! figure is more than 5 % above it or a reply was missed.
 
+mod held;
 mod layers;
 mod paths;
 mod report;

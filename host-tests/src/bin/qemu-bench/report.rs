@@ -230,6 +230,12 @@ fn print(args: &Args, m: &Measured, fl: &Flooded, x: &Figures) {
         m.summary.sent, m.summary.answered, m.summary.lost, m.summary.wrong_id, m.summary.malformed, x.late_device, m.summary.late,
     );
     println!("  device: {}", m.counters);
+    crate::held::Held::of(
+        m.sim_records
+            .iter()
+            .chain(m.realistic.iter().flat_map(|(_, rows)| rows.iter())),
+    )
+    .print();
     println!(
         "\n== the floor: the same inputs to a build that answers with a fixed reply and decodes nothing (driver + smoltcp + executor), full path"
     );

@@ -2,48 +2,37 @@
 //! while a client reads the diagnostics), printed beside the same build's
 //! quiet ones and gated: the service never at the cycle's expense.
 
+use crate::held::Held;
 use crate::paths::{full_paths, hostile_cost, spreads};
 use crate::Phase;
 use host_tests::qemu_bench::Spread;
 
-/// The scrape run's full-path bound: within 5 % of the quiet run's max,
-/// but for at most [`SCRAPE_COINCIDENCE_SHARE`] of the messages, none over
-/// 10 %. Measured: in some runs (2 of 5) one message of the ~1,500 is
-/// about 2,000 instructions over the others of its size (+5.1 %, +5.3 % on
-/// the max), outside the engine (its compute is unchanged). The likely
-/// cause, read in smoltcp 0.13's `Interface::poll` and not yet attributed
-/// by a measurement: after the runner hands a robot message to the stack,
-/// the same poll goes on to its egress pass, where a diagnostics socket
-/// with a segment due (an ACK, a FIN, the rest of a response) builds it
-/// before the held driver refuses it (the pass stops at the first refusal:
-/// one segment at most, about 5 % of the max). The compute max is held to
-/// 1 %, as the issue asks.
-const SCRAPE_FULL_TOLERANCE: f64 = 0.05;
-const SCRAPE_COINCIDENCE_TOLERANCE: f64 = 0.10;
-/// At most this share of the scrape run's messages over
-/// [`SCRAPE_FULL_TOLERANCE`] (1 %).
-const SCRAPE_COINCIDENCE_SHARE: f64 = 0.01;
-/// The same for the upload run (2 %): an upload sends full-size segments
-/// back to back, and the device ACKs them, so a diagnostics segment is
-/// due at a robot message's egress pass far more often than under a
-/// scraper. Measured (CI rehearsals on a fresh clone, about 123 messages
-/// with a full path each): 0 over 5 % on 2026-11-29; on 2026-12-05 0, 2
-/// (+7.49 % on the max, none over 10 %, the compute max +0.35 %) and 0 in
-/// three runs. The issue's bound on the full-path max alone
-/// (within 5 %) is therefore not met in every run, as for the scrape run;
-/// the compute max (1 %) and the far bound (none over 10 %) are held
-/// unchanged.
-const UPLOAD_COINCIDENCE_SHARE: f64 = 0.02;
+/// The scrape and upload runs' full-path bound, the issue's: the max
+/// within 5 % of the quiet run's max (the compute max within 1 %).
+///
+/// Until 2026-12-05 it held only with an allowance (1 % of the scrape
+/// run's messages, 2 % of the upload run's, might be over it, none over
+/// 10 %): in some runs one message was 2,000 to 3,000 instructions over
+/// the others of its size (+5.1 % to +7.49 % on the max), its compute
+/// unchanged. The bench's `held_in` and `held_out` found why (`held.rs`):
+/// those messages' spans held a whole pass of the network runner more,
+/// about 1,400 instructions, woken by a diagnostics frame arriving or a
+/// socket's timer while the cycle worked, which could take nothing in and
+/// send nothing out. The runner is now passed over while the cycle works
+/// (`guard::run_gated`). Measured since, in five runs: the upload run's
+/// max +2.15 % to +2.57 %, the scrape run's +0.58 % to +2.29 %; what
+/// is left is a segment built and refused in the message's own pass
+/// (`held_out`, about 350 instructions) and the interrupts of frames
+/// arriving (up to about 1,250 over the others of its size).
+const FULL_TOLERANCE: f64 = 0.05;
 
 /// The scrape run's figures, beside the same build's quiet ones.
 pub struct ScrapeFigures {
     pub compute: Spread,
     pub full: Spread,
     /// Messages whose full path is over the quiet max by more than
-    /// [`SCRAPE_FULL_TOLERANCE`], and by more than
-    /// [`SCRAPE_COINCIDENCE_TOLERANCE`].
+    /// [`FULL_TOLERANCE`].
     pub full_over: usize,
-    pub full_far_over: usize,
     /// Answered messages in the scrape run.
     pub messages: usize,
     pub hostile_max: u64,
@@ -54,9 +43,8 @@ pub struct ScrapeFigures {
     /// Which run: `scrape run` (a client on the diagnostics) or `upload
     /// run` (an update arriving).
     pub run: &'static str,
-    /// The share of its messages that may be over
-    /// [`SCRAPE_FULL_TOLERANCE`].
-    pub share: f64,
+    /// Its full paths by what the guard's hold turned away in their spans.
+    pub held: Held,
 }
 
 impl ScrapeFigures {
@@ -65,15 +53,11 @@ impl ScrapeFigures {
     pub fn of(run: &'static str, p: &Phase, scraper: &str, quiet_full_max: u64) -> Self {
         let (compute, full, late) = spreads(&p.sim_records, &p.realistic);
         let paths = full_paths(&p.sim_records, &p.realistic);
-        let over = |tolerance: f64| {
-            let bound = quiet_full_max as f64 * (1.0 + tolerance);
-            paths.iter().filter(|&&f| f as f64 > bound).count()
-        };
+        let bound = quiet_full_max as f64 * (1.0 + FULL_TOLERANCE);
         ScrapeFigures {
             compute,
             full,
-            full_over: over(SCRAPE_FULL_TOLERANCE),
-            full_far_over: over(SCRAPE_COINCIDENCE_TOLERANCE),
+            full_over: paths.iter().filter(|&&f| f as f64 > bound).count(),
             messages: paths.len(),
             hostile_max: p
                 .hostile
@@ -84,11 +68,11 @@ impl ScrapeFigures {
             missed: p.summary.lost + p.summary.wrong_id + p.summary.malformed + late,
             scraper: scraper.to_string(),
             run,
-            share: if run == "upload run" {
-                UPLOAD_COINCIDENCE_SHARE
-            } else {
-                SCRAPE_COINCIDENCE_SHARE
-            },
+            held: Held::of(
+                p.sim_records
+                    .iter()
+                    .chain(p.realistic.iter().flat_map(|(_, rows)| rows.iter())),
+            ),
         }
     }
 
@@ -124,17 +108,16 @@ impl ScrapeFigures {
             );
         }
         println!(
-            "  full paths over the quiet max by more than {:.0} %: {} of {} (bound: {:.0} % of them, none over {:.0} %)",
-            SCRAPE_FULL_TOLERANCE * 100.0,
+            "  full paths over the quiet max by more than {:.0} %: {} of {} (bound: none)",
+            FULL_TOLERANCE * 100.0,
             self.full_over,
             self.messages,
-            self.share * 100.0,
-            SCRAPE_COINCIDENCE_TOLERANCE * 100.0
         );
         println!(
             "  replies missed, wrong or late in the {}: {}",
             self.run, self.missed
         );
+        self.held.print();
     }
 
     /// The service never at the cycle's expense: the same build's figures
@@ -142,16 +125,13 @@ impl ScrapeFigures {
     /// whether all held.
     pub fn gate(&self, compute_max: u64, full_max: u64, hostile_max: u64) -> bool {
         let mut ok = true;
-        let allowed = (self.messages as f64 * self.share) as usize;
-        if self.full_over > allowed || self.full_far_over > 0 {
+        if self.full_over > 0 {
             println!(
-                "FAIL: {}: {} full paths of {} over the quiet run's max {full_max} by more than {:.0} % (bound: {allowed}), {} by more than {:.0} % (bound: 0); see scraped.rs",
+                "FAIL: {}: {} full paths of {} over the quiet run's max {full_max} by more than {:.0} % (bound: none); see held.rs's figures above and scraped.rs",
                 self.run,
                 self.full_over,
                 self.messages,
-                SCRAPE_FULL_TOLERANCE * 100.0,
-                self.full_far_over,
-                SCRAPE_COINCIDENCE_TOLERANCE * 100.0,
+                FULL_TOLERANCE * 100.0,
             );
             ok = false;
         }
@@ -184,37 +164,32 @@ impl ScrapeFigures {
 mod tests {
     use super::*;
 
-    fn figures(run: &'static str, messages: usize, over: usize, far: usize) -> ScrapeFigures {
+    fn figures(run: &'static str, messages: usize, over: usize) -> ScrapeFigures {
         ScrapeFigures {
             compute: Spread::of(vec![100]),
             full: Spread::of(vec![1000]),
             full_over: over,
-            full_far_over: far,
             messages,
             hostile_max: 0,
             missed: 0,
             scraper: String::new(),
             run,
-            share: if run == "upload run" {
-                UPLOAD_COINCIDENCE_SHARE
-            } else {
-                SCRAPE_COINCIDENCE_SHARE
-            },
+            held: Held::default(),
         }
     }
 
     #[test]
-    fn each_run_holds_its_share_of_full_paths_over_five_percent_and_none_over_ten() {
-        // 123 messages: the scrape run allows 1, the upload run 2.
-        assert!(figures("scrape run", 123, 1, 0).gate(100, 1000, 0));
-        assert!(!figures("scrape run", 123, 2, 0).gate(100, 1000, 0));
-        assert!(figures("upload run", 123, 2, 0).gate(100, 1000, 0));
-        assert!(!figures("upload run", 123, 3, 0).gate(100, 1000, 0));
-        // One over 10 % fails either run.
-        assert!(!figures("upload run", 123, 1, 1).gate(100, 1000, 0));
-        // The compute max is held to 1 % in both.
-        let mut f = figures("upload run", 123, 0, 0);
-        f.compute = Spread::of(vec![102]);
-        assert!(!f.gate(100, 1000, 0));
+    fn no_full_path_over_five_percent_and_the_compute_max_within_one() {
+        for run in ["scrape run", "upload run"] {
+            assert!(figures(run, 2059, 0).gate(100, 1000, 0));
+            // One message of 2,059 over the bound fails either run.
+            assert!(!figures(run, 2059, 1).gate(100, 1000, 0));
+            let mut f = figures(run, 2059, 0);
+            f.compute = Spread::of(vec![102]);
+            assert!(!f.gate(100, 1000, 0));
+            let mut f = figures(run, 2059, 0);
+            f.missed = 1;
+            assert!(!f.gate(100, 1000, 0));
+        }
     }
 }
