@@ -16,9 +16,18 @@
 //! The power: every sector erased and every word written is one
 //! operation, counted across every partition sharing one [`Power`]. At
 //! the cut, the operation that would be number N does not happen, it and
-//! everything after fail, until the power is restored. A cut *inside* an
-//! operation (a torn erase or a half-programmed word, which on the H743
-//! leaves a word whose ECC may not read back) is not modelled.
+//! everything after fail, until the power is restored.
+//!
+//! A cut *inside* the operation ([`Power::tear`]): the power goes as
+//! operation N runs, which is what a real cut does. A half-programmed
+//! flash word of the H743 holds bits and ECC that disagree (RM0433, the
+//! flash's ECC: 10 ECC bits per 256-bit flash word, a double error
+//! detected, not corrected); a torn erase leaves every word of its sector
+//! so. Such a word reads back as [`FlashError::Torn`] until its sector is
+//! erased, and cannot be programmed. That is kinder than silicon, where a
+//! CPU read of it is a precise bus fault (PX4-Autopilot #27642, Zephyr
+//! #33140 and embassy #4777 met it): a caller that sees the error here
+//! faults there.
 
 use embedded_storage::nor_flash::{
     ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
@@ -31,6 +40,9 @@ use std::rc::Rc;
 pub struct Power {
     ops: Cell<u64>,
     cut_at: Cell<Option<u64>>,
+    /// The cut tears the operation it falls on rather than stopping it
+    /// before it starts.
+    tear: Cell<bool>,
     off: Cell<bool>,
     refused_writes: Cell<u64>,
 }
@@ -46,6 +58,12 @@ impl Power {
     pub fn cut_at(&self, n: Option<u64>) {
         self.ops.set(0);
         self.cut_at.set(n);
+    }
+
+    /// Whether a cut tears the operation it falls on ([`FlashError::Torn`]
+    /// words) rather than stopping it before it starts (the default).
+    pub fn tear(&self, tear: bool) {
+        self.tear.set(tear);
     }
 
     /// Power back on (a reset), no cut planned.
@@ -69,19 +87,32 @@ impl Power {
         self.refused_writes.get()
     }
 
-    /// One operation may start: `false` when the power is (now) off.
-    fn tick(&self) -> bool {
+    /// One operation may start: `Go`, or not at all (the power is off),
+    /// or torn (the cut falls on it and tears it).
+    fn tick(&self) -> Tick {
         if self.off.get() {
-            return false;
+            return Tick::Off;
         }
         let n = self.ops.get();
         if self.cut_at.get() == Some(n) {
             self.off.set(true);
-            return false;
+            return if self.tear.get() {
+                Tick::Torn
+            } else {
+                Tick::Off
+            };
         }
         self.ops.set(n + 1);
-        true
+        Tick::Go
     }
+}
+
+/// What becomes of an operation ([`Power::tick`]).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Tick {
+    Go,
+    Off,
+    Torn,
 }
 
 /// Why the model refused an operation.
@@ -95,6 +126,9 @@ pub enum FlashError {
     OutOfBounds,
     /// A write to a word that is not erased.
     NotErased,
+    /// A read of a word a cut tore (on the H743: a double ECC error, a
+    /// bus fault on silicon).
+    Torn,
 }
 
 impl NorFlashError for FlashError {
@@ -103,7 +137,7 @@ impl NorFlashError for FlashError {
             FlashError::PowerCut => NorFlashErrorKind::Other,
             FlashError::NotAligned => NorFlashErrorKind::NotAligned,
             FlashError::OutOfBounds => NorFlashErrorKind::OutOfBounds,
-            FlashError::NotErased => NorFlashErrorKind::Other,
+            FlashError::NotErased | FlashError::Torn => NorFlashErrorKind::Other,
         }
     }
 }
@@ -114,6 +148,8 @@ pub struct Flash<const ERASE: usize, const WRITE: usize> {
     /// Which words were programmed since their sector's erase: a word
     /// written with 0xFF is programmed all the same (its ECC on the H743).
     programmed: Vec<bool>,
+    /// Which words a cut tore (read back as [`FlashError::Torn`]).
+    torn: Vec<bool>,
     power: Rc<Power>,
 }
 
@@ -124,6 +160,7 @@ impl<const ERASE: usize, const WRITE: usize> Flash<ERASE, WRITE> {
         Flash {
             mem: vec![0xFF; size],
             programmed: vec![false; size / WRITE],
+            torn: vec![false; size / WRITE],
             power: power.clone(),
         }
     }
@@ -137,9 +174,14 @@ impl<const ERASE: usize, const WRITE: usize> Flash<ERASE, WRITE> {
         f
     }
 
-    /// Its bytes.
+    /// Its bytes (a torn word's as they were before the cut).
     pub fn bytes(&self) -> &[u8] {
         &self.mem
+    }
+
+    /// Whether a word a cut tore is in it (and not erased since).
+    pub fn has_torn(&self) -> bool {
+        self.torn.iter().any(|&t| t)
     }
 
     fn check(&self, offset: u32, len: usize, align: usize) -> Result<usize, FlashError> {
@@ -166,6 +208,11 @@ impl<const ERASE: usize, const WRITE: usize> ReadNorFlash for Flash<ERASE, WRITE
             return Err(FlashError::PowerCut);
         }
         let start = self.check(offset, bytes.len(), 1)?;
+        if !bytes.is_empty()
+            && self.torn[start / WRITE..=(start + bytes.len() - 1) / WRITE].contains(&true)
+        {
+            return Err(FlashError::Torn);
+        }
         bytes.copy_from_slice(&self.mem[start..start + bytes.len()]);
         Ok(())
     }
@@ -185,11 +232,19 @@ impl<const ERASE: usize, const WRITE: usize> NorFlash for Flash<ERASE, WRITE> {
         }
         let start = self.check(from, (to - from) as usize, ERASE)?;
         for sector in (start..to as usize).step_by(ERASE) {
-            if !self.power.tick() {
-                return Err(FlashError::PowerCut);
+            let words = sector / WRITE..(sector + ERASE) / WRITE;
+            match self.power.tick() {
+                Tick::Off => return Err(FlashError::PowerCut),
+                Tick::Torn => {
+                    self.torn[words.clone()].fill(true);
+                    self.programmed[words].fill(true);
+                    return Err(FlashError::PowerCut);
+                }
+                Tick::Go => {}
             }
             self.mem[sector..sector + ERASE].fill(0xFF);
-            self.programmed[sector / WRITE..(sector + ERASE) / WRITE].fill(false);
+            self.programmed[words.clone()].fill(false);
+            self.torn[words].fill(false);
         }
         Ok(())
     }
@@ -207,8 +262,14 @@ impl<const ERASE: usize, const WRITE: usize> NorFlash for Flash<ERASE, WRITE> {
                     .set(self.power.refused_writes.get() + 1);
                 return Err(FlashError::NotErased);
             }
-            if !self.power.tick() {
-                return Err(FlashError::PowerCut);
+            match self.power.tick() {
+                Tick::Off => return Err(FlashError::PowerCut),
+                Tick::Torn => {
+                    self.torn[at / WRITE] = true;
+                    self.programmed[at / WRITE] = true;
+                    return Err(FlashError::PowerCut);
+                }
+                Tick::Go => {}
             }
             self.mem[at..at + WRITE].copy_from_slice(word);
             self.programmed[at / WRITE] = true;
@@ -270,5 +331,40 @@ mod tests {
         power.restore();
         assert_eq!(f.erase(0, 256), Ok(()));
         assert_eq!(power.ops(), 3);
+    }
+
+    /// A torn program leaves its word unreadable and unprogrammable; a
+    /// torn erase, every word of its sector; an erase mends both.
+    #[test]
+    fn a_torn_operation_leaves_words_that_do_not_read_back_until_erased() {
+        let power = Power::new();
+        let mut f = F::erased(1024, &power);
+        power.tear(true);
+        power.cut_at(Some(1));
+        assert_eq!(f.write(0, &[0; 32]), Err(FlashError::PowerCut));
+        power.restore();
+        assert_eq!(f.read(0, &mut [0; 16]), Ok(()), "the word before the cut");
+        assert_eq!(f.read(16, &mut [0; 1]), Err(FlashError::Torn));
+        assert_eq!(
+            f.read(8, &mut [0; 16]),
+            Err(FlashError::Torn),
+            "a read across it"
+        );
+        assert_eq!(f.read(32, &mut [0; 16]), Ok(()));
+        assert_eq!(f.write(16, &[0; 16]), Err(FlashError::NotErased));
+        assert!(f.has_torn());
+        power.cut_at(Some(0));
+        assert_eq!(f.erase(256, 512), Err(FlashError::PowerCut));
+        power.restore();
+        assert_eq!(f.read(300, &mut [0; 1]), Err(FlashError::Torn));
+        f.erase(0, 512).unwrap();
+        assert!(!f.has_torn());
+        assert_eq!(f.read(0, &mut [0; 512]), Ok(()));
+        // Without tearing, the cut stops the operation whole.
+        power.tear(false);
+        power.cut_at(Some(0));
+        assert_eq!(f.write(0, &[0; 16]), Err(FlashError::PowerCut));
+        power.restore();
+        assert!(!f.has_torn());
     }
 }

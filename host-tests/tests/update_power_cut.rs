@@ -8,182 +8,12 @@
 //! H743) so that a cut can be tried at every one of the run's operations;
 //! the algorithm (embassy-boot's swap) and the checks are the boards'.
 
-use embassy_boot::{BootLoaderConfig, FirmwareUpdaterConfig, State};
-use host_tests::flash_model::{Flash, Power};
+mod update_chip;
+
+use embassy_boot::{FirmwareUpdaterConfig, State};
 use rri_update::image::BadTrailer;
-use rri_update::{sign, Refused, Running, Trailer, Upload, Version};
-use std::rc::Rc;
-
-const SECTOR: usize = 2048;
-const WORD: usize = 32;
-type F = Flash<SECTOR, WORD>;
-
-/// ACTIVE 2 sectors, DFU one more (embassy-boot's rule), STATE one.
-const ACTIVE: usize = 2 * SECTOR;
-const DFU: usize = ACTIVE + SECTOR;
-const STATE: usize = SECTOR;
-
-const BOARD: &str = "nucleo-h743zi";
-/// Where the active partition starts (what the images are linked for).
-const ORIGIN: u32 = 0x0804_0000;
-const SEED: [u8; 32] = [7; 32];
-const OTHER_SEED: [u8; 32] = [9; 32];
-
-fn v(text: &str) -> Version {
-    Version::parse(text).unwrap()
-}
-
-const RUNNING: Running<'static> = Running {
-    board: BOARD,
-    origin: ORIGIN,
-    version: match Version::parse("0.2.0") {
-        Some(v) => v,
-        None => panic!("a version"),
-    },
-};
-
-/// An update file: `len` bytes of image (a pattern of `fill`), its
-/// trailer, its signature by `seed`.
-fn file(fill: u8, len: usize, board: &str, version: &str, seed: &[u8; 32]) -> Vec<u8> {
-    file_at(fill, len, board, version, seed, ORIGIN)
-}
-
-/// [`file`] for an image linked at `origin`.
-fn file_at(
-    fill: u8,
-    len: usize,
-    board: &str,
-    version: &str,
-    seed: &[u8; 32],
-    origin: u32,
-) -> Vec<u8> {
-    let image: Vec<u8> = (0..len).map(|i| fill ^ (i as u8)).collect();
-    let trailer = Trailer::new(board, v(version), len as u32, origin)
-        .unwrap()
-        .encode();
-    let signature = sign::signature(&image, &trailer, seed);
-    [image, trailer.to_vec(), signature.to_vec()].concat()
-}
-
-/// One chip: its three partitions and its power.
-struct Chip {
-    power: Rc<Power>,
-    active: F,
-    dfu: F,
-    state: F,
-    /// Starts that finished an interrupted rollback or confirmation.
-    recovered: u32,
-}
-
-impl Chip {
-    /// The running image `a` flashed by a probe, nothing else.
-    fn with(a: &[u8]) -> Chip {
-        let power = Power::new();
-        Chip {
-            active: F::holding(a, ACTIVE, &power),
-            dfu: F::erased(DFU, &power),
-            state: F::erased(STATE, &power),
-            power,
-            recovered: 0,
-        }
-    }
-
-    /// A start: our bootloader's preparation (`rri_update::boot`:
-    /// embassy-boot's, after finishing a rollback or confirmation a cut
-    /// interrupted). Counts the starts that needed that.
-    fn boot(&mut self) -> Result<State, embassy_boot::BootError> {
-        let mut buf = [0; 512];
-        let started = rri_update::boot::prepare(
-            BootLoaderConfig {
-                active: &mut self.active,
-                dfu: &mut self.dfu,
-                state: &mut self.state,
-            },
-            &mut buf,
-        )?;
-        self.recovered += u32::from(started.recovered);
-        Ok(started.state)
-    }
-
-    /// Uploads `bytes` in pieces of 1,000 and finishes.
-    fn upload(&mut self, bytes: &[u8], force: bool) -> Result<Trailer, Refused> {
-        self.upload_declared(bytes, bytes.len(), force)
-    }
-
-    /// Uploads `bytes`, declared as `declared` bytes long.
-    fn upload_declared(
-        &mut self,
-        bytes: &[u8],
-        declared: usize,
-        force: bool,
-    ) -> Result<Trailer, Refused> {
-        let config = FirmwareUpdaterConfig {
-            dfu: &mut self.dfu,
-            state: &mut self.state,
-        };
-        let mut up = Upload::begin(config, ACTIVE, declared)?;
-        for piece in bytes.chunks(1000) {
-            up.push(piece)?;
-        }
-        let trailer = up.finish(&RUNNING, &sign::public_key(&SEED), force)?;
-        // As the device does after the mark: the running version noted
-        // for the new image (one more flash operation, cut like the rest;
-        // its loss costs the note only).
-        let used = rri_update::state_used(ACTIVE, SECTOR, WORD);
-        let _ = rri_update::note_previous(&mut self.state, RUNNING.version, used);
-        Ok(trailer)
-    }
-
-    fn state(&mut self) -> Result<State, Refused> {
-        rri_update::state(&mut self.state, &mut [0; WORD])
-    }
-
-    fn confirm(&mut self) -> Result<(), Refused> {
-        rri_update::confirm(&mut self.state, &mut [0; WORD])
-    }
-
-    /// Which of `a` and `b` the whole ACTIVE partition holds: the file
-    /// and, after it, erased bytes (what the probe left, and what the
-    /// swap brings from the update partition's sectors, each erased as
-    /// the upload began it).
-    fn running(&self, a: &[u8], b: &[u8]) -> Option<char> {
-        let act = self.active.bytes();
-        let whole = |f: &[u8]| act.starts_with(f) && act[f.len()..].iter().all(|&x| x == 0xFF);
-        if whole(a) {
-            Some('A')
-        } else if whole(b) {
-            Some('B')
-        } else {
-            None
-        }
-    }
-}
-
-/// A refused file changes nothing the bootloader reads: not a byte of
-/// the state partition, and the next reset boots the running image.
-fn assert_refused(a: &[u8], offered: &[u8], force: bool, want: Refused) {
-    let mut chip = Chip::with(a);
-    let state = chip.state.bytes().to_vec();
-    assert_eq!(chip.upload(offered, force), Err(want));
-    assert_unmarked(&mut chip, a, &state);
-}
-
-/// Not a byte of the state partition changed, and the next reset boots
-/// the running image, whole.
-fn assert_unmarked(chip: &mut Chip, a: &[u8], state_before: &[u8]) {
-    assert_eq!(
-        chip.state.bytes(),
-        state_before,
-        "the state partition changed"
-    );
-    assert_eq!(chip.boot(), Ok(State::Boot));
-    assert_eq!(
-        chip.running(a, &[]),
-        Some('A'),
-        "the running image is untouched"
-    );
-    assert_eq!(chip.power.refused_writes(), 0);
-}
+use rri_update::{Refused, Upload};
+use update_chip::*;
 
 #[test]
 fn unsigned_altered_other_board_older_and_short_files_are_refused_and_nothing_is_marked() {
@@ -352,7 +182,19 @@ struct Cut {
 /// `confirms`) confirms itself, reset. Returns the chip as the cut left
 /// it, and where the cut fell.
 fn run(a: &[u8], b: &[u8], cut: Option<u64>, confirms: bool) -> (Chip, Option<Cut>) {
+    run_tearing(a, b, cut, confirms, false)
+}
+
+/// [`run`], the cut tearing the operation it falls on when `tear`.
+fn run_tearing(
+    a: &[u8],
+    b: &[u8],
+    cut: Option<u64>,
+    confirms: bool,
+    tear: bool,
+) -> (Chip, Option<Cut>) {
     let mut chip = Chip::with(a);
+    chip.power.tear(tear);
     chip.power.cut_at(cut);
     let off = |chip: &Chip, step| {
         chip.power.is_off().then(|| Cut {
@@ -393,31 +235,39 @@ fn run(a: &[u8], b: &[u8], cut: Option<u64>, confirms: bool) -> (Chip, Option<Cu
 /// watchdog resets it. Returns the image it settled on and how many
 /// starts finished an interrupted rollback or confirmation first.
 fn recover(chip: &mut Chip, a: &[u8], b: &[u8], confirms: bool, cut: &Cut) -> (char, u32) {
+    settle(chip, a, b, confirms).unwrap_or_else(|e| panic!("{cut:?}: {e}"))
+}
+
+/// [`recover`]'s starts: `Err` says how the device failed to settle.
+fn settle(chip: &mut Chip, a: &[u8], b: &[u8], confirms: bool) -> Result<(char, u32), String> {
     chip.power.restore();
     let before = chip.recovered;
     for _start in 0..4 {
         if let Err(e) = chip.boot() {
-            panic!("{cut:?}: the bootloader reported {e:?}");
+            return Err(format!("the bootloader reported {e:?}"));
         }
         let errors = chip.recovered - before;
+        if chip.active.has_torn() {
+            return Err("ACTIVE holds a torn word (the image faults where it runs)".into());
+        }
         let running = chip
             .running(a, b)
-            .unwrap_or_else(|| panic!("{cut:?}: ACTIVE holds neither image whole"));
+            .ok_or("ACTIVE holds neither image whole")?;
         if running == 'B' && !confirms {
             continue;
         }
         chip.confirm()
-            .unwrap_or_else(|e| panic!("{cut:?}: {running} could not confirm itself: {e:?}"));
+            .map_err(|e| format!("{running} could not confirm itself: {e:?}"))?;
         let after = chip.boot();
-        assert_eq!(
-            after,
-            Ok(State::Boot),
-            "{cut:?}: the start after the confirmation"
-        );
-        assert_eq!(chip.running(a, b), Some(running), "{cut:?}: it stays");
-        return (running, errors);
+        if after != Ok(State::Boot) {
+            return Err(format!("the start after the confirmation: {after:?}"));
+        }
+        if chip.running(a, b) != Some(running) {
+            return Err(format!("{running} did not stay"));
+        }
+        return Ok((running, errors));
     }
-    panic!("{cut:?}: no image confirmed itself in four starts")
+    Err("no image confirmed itself in four starts".into())
 }
 
 fn every_cut(confirms: bool) -> (u64, Vec<(&'static str, char, u32)>) {
@@ -473,6 +323,65 @@ fn a_power_cut_at_every_operation_of_an_unconfirmed_update_ends_on_the_old_image
     assert_eq!(tally(&outcomes, "upload"), (110, 0, 0));
     assert_eq!(tally(&outcomes, "swap"), (264, 0, 0));
     assert_eq!(tally(&outcomes, "rollback at the next reset"), (267, 0, 1));
+}
+
+/// A cut *inside* every flash operation of a confirmed update: the
+/// operation torn, its word (or its sector, an erase) left unreadable as
+/// a half-programmed H743 flash word is (`flash_model`'s `Power::tear`).
+/// What the device does after each, tallied by step and by outcome.
+///
+/// Measured, and held here so that a change shows: a tear in the update
+/// or the active partition ends on A or B like a clean cut (the swap
+/// copies a torn page again from its source; the upload's erase mends its
+/// own); **a tear in the state partition is not recovered** (10 of the
+/// 377): embassy-boot reads the torn magic or progress word and reports a
+/// flash error, which our bootloader halts on (on silicon the read itself
+/// is a bus fault), or the image cannot confirm itself over it. What would
+/// mend it: a careful read of the state partition on both sides (the
+/// H743's double ECC error caught, not faulted on) that shows a torn word
+/// as programmed, which is what each of embassy-boot's readings of it
+/// needs (a torn progress word was written after its page's copy; a torn
+/// magic is no magic: the image in ACTIVE boots, and its confirmation
+/// erases the sector). Not built: issue 43's "not done".
+#[test]
+fn a_torn_operation_at_every_cut_of_a_confirmed_update() {
+    let a = file(0xA0, 2000, BOARD, "0.2.0", &SEED);
+    let b = file(0xB0, 3000, BOARD, "0.3.0", &SEED);
+    let total = run(&a, &b, None, true).0.power.ops();
+    let mut outcomes = Vec::new();
+    for n in 0..total {
+        let (mut chip, cut) = run_tearing(&a, &b, Some(n), true, true);
+        let cut = cut.unwrap_or_else(|| panic!("a torn cut at {n} fell in no step"));
+        let partition = if chip.state.has_torn() {
+            "state"
+        } else if chip.dfu.has_torn() {
+            "update"
+        } else {
+            "active"
+        };
+        outcomes.push((cut.step, partition, settle(&mut chip, &a, &b, true)));
+    }
+    let mut tally: std::collections::BTreeMap<String, u64> = Default::default();
+    for (step, partition, outcome) in &outcomes {
+        let what = match outcome {
+            Ok((image, _)) => format!("ended on {image}"),
+            Err(e) => format!("FAILED: {e}"),
+        };
+        *tally
+            .entry(format!("in the {step}, {partition} partition torn: {what}"))
+            .or_default() += 1;
+    }
+    println!("{total} flash operations, each torn by the cut:");
+    for (what, n) in &tally {
+        println!("  {what}: {n}");
+    }
+    assert_eq!(total, 377);
+    let failed: Vec<_> = outcomes.iter().filter(|o| o.2.is_err()).collect();
+    assert!(
+        failed.iter().all(|o| o.1 == "state"),
+        "a tear outside the state partition failed: {failed:?}"
+    );
+    assert_eq!(failed.len(), 10, "{failed:?}");
 }
 
 /// Of the cuts in `step`: how many ended on A, on B, and the starts that
