@@ -150,7 +150,7 @@ impl Link {
         self.may(now_us, waker, |h| matches!(h, Hold::Awaiting { .. }))
     }
 
-    /// The network runner's gate ([`crate::fragments::guard::run_gated`]):
+    /// The network runner's gate (`fragments::guard::run_gated`, with `net`):
     /// may it make a pass now? `false` while the cycle works on a robot
     /// message: such a pass could take nothing in and send nothing out
     /// (the guard refuses both), only cost the message's full path: about
