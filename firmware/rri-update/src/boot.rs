@@ -16,6 +16,7 @@
 //! other error is the caller's to treat as a halt: with a flash fault in
 //! the middle of a swap the active partition may hold parts of both.
 
+use crate::torn::TornAsProgrammed;
 use crate::upload::WORD_MAX;
 use embassy_boot::{BlockingFirmwareState, BootError, BootLoader, BootLoaderConfig, State};
 use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
@@ -49,11 +50,9 @@ pub fn prepare<A: NorFlash, D: NorFlash, S: NorFlash>(
             "the state partition's write size is at most WORD_MAX"
         );
     }
-    let BootLoaderConfig {
-        active,
-        dfu,
-        mut state,
-    } = config;
+    let BootLoaderConfig { active, dfu, state } = config;
+    // A word a cut tore reads as programmed (see `torn`).
+    let mut state = TornAsProgrammed(state);
     let mut word = Word([0; WORD_MAX]);
     let w = word.0.get_mut(..S::WRITE_SIZE).unwrap_or(&mut []);
     let recovered = finish_interrupted(&mut state, w)?;

@@ -17,7 +17,7 @@
 //! step is recorded in the state partition so that a power cut at any
 //! point leaves the old image or the new one, whole
 //! (`host-tests/tests/update_power_cut.rs` cuts it at every flash
-//! operation).
+//! operation, and tears each: [`torn`]).
 //!
 //! No chip is named here: the flash is any `NorFlash` (the boards' flash
 //! driver, the host's model). No heap, work bounded by the bytes given,
@@ -30,6 +30,7 @@ pub mod boot;
 mod device;
 pub mod image;
 pub mod lifecycle;
+pub mod torn;
 mod upload;
 
 pub use device::{Device, Outcome, Receive};

@@ -4,8 +4,9 @@
 //! state partition as it was: the bootloader boots the running image.
 
 use crate::image::{BadTrailer, Running, Trailer, Version, SIGNATURE_LEN, TRAILER_LEN};
+use crate::torn::TornAsProgrammed;
 use embassy_boot::{BlockingFirmwareState, FirmwareUpdaterConfig, FirmwareUpdaterError, State};
-use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
+use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash};
 
 /// Bytes gathered before each write to the update partition: a multiple of
 /// every board's flash write size (F7: 16, H7: 32; checked at build time)
@@ -144,7 +145,8 @@ pub const WORD_MAX: usize = 32;
 /// is programmed once between erases).
 pub struct Upload<DFU: NorFlash, STATE: NorFlash> {
     dfu: DFU,
-    state: STATE,
+    /// Read as the bootloader reads it: a torn word as programmed.
+    state: TornAsProgrammed<STATE>,
     word: Word,
     failed: Option<Refused>,
     declared: usize,
@@ -196,7 +198,7 @@ impl<DFU: NorFlash, STATE: NorFlash> Upload<DFU, STATE> {
         }
         let mut up = Upload {
             dfu: config.dfu,
-            state: config.state,
+            state: TornAsProgrammed(config.state),
             word: Word([0; WORD_MAX]),
             failed: None,
             declared,
@@ -215,7 +217,7 @@ impl<DFU: NorFlash, STATE: NorFlash> Upload<DFU, STATE> {
 
     /// embassy-boot's view of the state partition, through this upload's
     /// word buffer.
-    fn state_view(&mut self) -> BlockingFirmwareState<'_, &mut STATE> {
+    fn state_view(&mut self) -> BlockingFirmwareState<'_, &mut TornAsProgrammed<STATE>> {
         let word = self.word.0.get_mut(..STATE::WRITE_SIZE).unwrap_or(&mut []);
         BlockingFirmwareState::new(&mut self.state, word)
     }
@@ -369,7 +371,7 @@ pub fn state<STATE: NorFlash>(state: STATE, aligned: &mut [u8]) -> Result<State,
     if aligned.len() != STATE::WRITE_SIZE {
         return Err(Refused::Buffer);
     }
-    BlockingFirmwareState::new(state, aligned)
+    BlockingFirmwareState::new(TornAsProgrammed(state), aligned)
         .get_state()
         .map_err(Refused::from)
 }
@@ -425,8 +427,9 @@ pub fn note_previous<STATE: NorFlash>(
 
 /// The version the image that marked this one noted ([`note_previous`]):
 /// what this image replaced, read at start-up while it is on trial.
-pub fn previous<STATE: NorFlash>(mut state: STATE, used: usize) -> Option<Version> {
-    let (at, len) = previous_at(&state, used)?;
+pub fn previous<STATE: NorFlash>(state: STATE, used: usize) -> Option<Version> {
+    let mut state = TornAsProgrammed(state);
+    let (at, len) = previous_at(&state.0, used)?;
     let mut word = Word([0; WORD_MAX]);
     let buf = word.0.get_mut(..len)?;
     state.read(at, buf).ok()?;
@@ -454,10 +457,11 @@ pub fn state_used(active: usize, page: usize, write: usize) -> usize {
 /// has not confirmed itself, when the state's *swap* is its own and is
 /// not cancelled ([`Refused::OnTrial`]).
 pub fn cancel<STATE: NorFlash>(
-    mut state: STATE,
+    state: STATE,
     aligned: &mut [u8],
     on_trial: bool,
 ) -> Result<(), Refused> {
+    let mut state = TornAsProgrammed(state);
     if aligned.len() != STATE::WRITE_SIZE {
         return Err(Refused::Buffer);
     }
@@ -483,7 +487,7 @@ pub fn confirm<STATE: NorFlash>(state: STATE, aligned: &mut [u8]) -> Result<(), 
     if aligned.len() != STATE::WRITE_SIZE {
         return Err(Refused::Buffer);
     }
-    BlockingFirmwareState::new(state, aligned)
+    BlockingFirmwareState::new(TornAsProgrammed(state), aligned)
         .mark_booted()
         .map_err(Refused::from)
 }
