@@ -133,24 +133,31 @@ pub fn active_holds_image(active: &mut Partition) -> bool {
         return false;
     }
     let [a, b, c, d, e, f, g, h] = words;
-    let origin = flash::active_origin();
-    crate::boot::looks_like_image(
+    is_vector_table(
         u32::from_le_bytes([a, b, c, d]),
         u32::from_le_bytes([e, f, g, h]),
-        origin,
         active.capacity() as u32,
-        DTCM,
     )
 }
+
+/// Whether `sp` and `reset`, the active partition's first two words, are
+/// the vector table of an image linked there, in a partition of
+/// `capacity` bytes ([`crate::boot::looks_like_image`]).
+fn is_vector_table(sp: u32, reset: u32, capacity: u32) -> bool {
+    crate::boot::looks_like_image(sp, reset, flash::active_origin(), capacity, DTCM)
+}
+
+/// Why a board with an empty active partition fails: its first image
+/// goes on with a probe.
+#[cfg(feature = "nucleo-f767zi")]
+const NO_IMAGE: &str = "no image in the active partition: flash one with `cargo f767` (probe-rs)";
+#[cfg(feature = "nucleo-h743zi")]
+const NO_IMAGE: &str = "no image in the active partition: flash one with `cargo h743` (probe-rs)";
 
 /// A NUCLEO's first image is flashed by a probe into the active
 /// partition: the bootloader has none to install.
 pub fn install_first_image(_: &mut Partition) -> Result<(), &'static str> {
-    #[cfg(feature = "nucleo-f767zi")]
-    const WHY: &str = "no image in the active partition: flash one with `cargo f767` (probe-rs)";
-    #[cfg(feature = "nucleo-h743zi")]
-    const WHY: &str = "no image in the active partition: flash one with `cargo h743` (probe-rs)";
-    Err(WHY)
+    Err(NO_IMAGE)
 }
 
 /// Starts the image in the active partition (its handle given up).
@@ -183,8 +190,8 @@ fn start_single_bank() -> ! {
             core::ptr::read_volatile((origin + 4) as *const u32),
         )
     };
-    if !crate::boot::looks_like_image(sp, reset, origin, flash::active().len, DTCM) {
-        fail("no image in the active partition: flash one with `cargo f767` (probe-rs)");
+    if !is_vector_table(sp, reset, flash::active().len) {
+        fail(NO_IMAGE);
     }
     // SAFETY: as in `start_active`: a vector table is there (checked), and
     // nothing was started or enabled.

@@ -6,6 +6,13 @@ use crate::qemu::Qemu;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+/// The last `n` of a log's `lines`, each on a line of its own indented
+/// under a failure's message.
+pub fn tail<'a>(lines: impl DoubleEndedIterator<Item = &'a str>, n: usize) -> String {
+    let last: Vec<&str> = lines.rev().take(n).collect();
+    last.into_iter().rev().collect::<Vec<_>>().join("\n  ")
+}
+
 /// A running firmware and its log, as the run needs it.
 pub trait Device {
     /// Waits until a logged line contains `needle`.

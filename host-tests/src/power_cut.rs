@@ -199,8 +199,7 @@ fn ends_confirmed(log: &str) -> bool {
 
 /// The last lines of a log, indented, for a failed verdict.
 fn tail<'a>(lines: impl DoubleEndedIterator<Item = &'a str>) -> String {
-    let last: Vec<&str> = lines.rev().take(12).collect();
-    last.into_iter().rev().collect::<Vec<_>>().join("\n  ")
+    crate::device::tail(lines, 12)
 }
 
 /// A cut in the swap (the bootloader must finish it and B answer) or in

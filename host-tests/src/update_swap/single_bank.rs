@@ -38,14 +38,9 @@ pub fn check(setup: &Setup, images: &Images) -> Step {
     })();
     let log = d.stop();
     result.map_err(|e: String| {
-        let last: Vec<&String> = log.iter().rev().take(20).collect();
         format!(
             "{e}\n  {}",
-            last.into_iter()
-                .rev()
-                .cloned()
-                .collect::<Vec<_>>()
-                .join("\n  ")
+            crate::device::tail(log.iter().map(String::as_str), 20)
         )
     })
 }
