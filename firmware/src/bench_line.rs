@@ -34,11 +34,12 @@ pub struct Record {
     /// Every other frame since the last message, all layers (the earlier
     /// fragments: work done before the full span starts).
     pub before: u32,
-    /// Passes of the network runner in the full span that the fragment
-    /// guard's hold kept from taking a frame in: each is a poll of the
-    /// stack (its ingress turned away, its egress pass made) that the
-    /// message waited through. What a client on the diagnostics costs the
-    /// full path shows here.
+    /// The network runner's calls for a frame in the full span that the
+    /// fragment guard's hold refused. Two are the message's own (the
+    /// stack asks again in the pass that hands the message over, and once
+    /// in the reply's pass); each more is a whole pass of the stack the
+    /// message waited through (none since the runner is passed over while
+    /// the cycle works, `fragments::guard::run_gated`).
     pub held_in: u32,
     /// Frames the stack built in the span and the hold kept from leaving
     /// (the driver refused them a token; smoltcp built each segment's
