@@ -290,7 +290,7 @@ fn upload_cut(setup: &Setup, board: Board, images: &Images, n: u64, what: &str) 
     );
     let ok = s.version == images.a_version
         && matches!(answered, Ok((a, sent)) if a == sent && sent > 0)
-        && matches!(&again, Ok((200, said)) if said.contains("checked and marked"));
+        && b_taken(&first, &again);
     if ok {
         Ok(line)
     } else {
@@ -299,6 +299,20 @@ fn upload_cut(setup: &Setup, board: Board, images: &Images, n: u64, what: &str) 
             tail(log.iter().map(|l| l.as_str()))
         ))
     }
+}
+
+/// After a cut in the upload and A back: B was taken. Either the cut
+/// upload died with the power and B, sent again, is checked and marked;
+/// or the client tried the upload again (`update_device::upload` does,
+/// up to five times 300 ms apart, when the device ends a connection
+/// without a byte of answer, as the rebooted device does to the old
+/// one) and A, back by then, took the whole file: B is marked, and the
+/// second sending is refused as marked already. Seen with `--all` at the
+/// upload's first operations, where the tool called it a failure.
+fn b_taken(first: &Result<(u16, String), String>, again: &Result<(u16, String), String>) -> bool {
+    let marked = |r: &Result<(u16, String), String>| matches!(r, Ok((200, said)) if said.contains("checked and marked"));
+    marked(again)
+        || (marked(first) && matches!(again, Ok((409, said)) if said.contains("marked already")))
 }
 
 /// The census's runs, one line each.
@@ -392,6 +406,25 @@ mod tests {
         assert!(!ends_confirmed(&format!("{trial}{confirmed}{cut}{trial}")));
         assert!(ends_confirmed(&format!("{trial}{cut}")));
         assert!(!ends_confirmed("no cut at all"));
+    }
+
+    #[test]
+    fn b_is_taken_once_whichever_attempt_carried_it() {
+        let marked = Ok((200, "version 0.1.1 checked and marked: ...".to_string()));
+        let already = Ok((
+            409,
+            "refused: an update is marked already, or ...".to_string(),
+        ));
+        let died = Err("no answer".to_string());
+        assert!(b_taken(&died, &marked));
+        assert!(b_taken(&marked, &already));
+        // Marked by neither, or refused though nothing was marked.
+        assert!(!b_taken(&died, &already));
+        assert!(!b_taken(&died, &died));
+        assert!(!b_taken(
+            &marked,
+            &Ok((403, "refused: signature".to_string()))
+        ));
     }
 
     #[test]
