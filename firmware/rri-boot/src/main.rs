@@ -1,17 +1,18 @@
 //! The bootloader: the first code a board runs, from its own partition.
 //!
-//! 1. While the active partition holds no image, it puts the first one
-//!    there where the board can (QEMU: its loader writes a factory image
-//!    beside the bootloader, copied once); on a NUCLEO the probe flashes
-//!    the first image (`cargo f767`, `cargo h743`), and without one the
-//!    bootloader says so.
-//! 2. It finishes what embassy-boot left: an interrupted rollback or
+//! 1. It finishes what embassy-boot left: an interrupted rollback or
 //!    confirmation ([`rri_update::boot::prepare`]), then the swap a marked
 //!    update asks for, or the swap back when the image swapped in last
 //!    time did not confirm itself. Every step is power-cut safe: a cut
 //!    anywhere is finished at the next start (the host's power-cut test,
 //!    `host-tests/tests/update_power_cut.rs`, cuts at every flash
-//!    operation).
+//!    operation). First, because a cut in the swap's last step leaves the
+//!    active partition without its vector table until it is finished.
+//! 2. While the active partition then holds no image, it puts the first
+//!    one there where the board can (QEMU: its loader writes a factory
+//!    image beside the bootloader, copied once); on a NUCLEO the probe
+//!    flashes the first image (`cargo f767`, `cargo h743`), and without
+//!    one the bootloader says so.
 //! 3. It starts the active image.
 //!
 //! It says nothing when all is well; a bootloader that cannot start an
@@ -38,11 +39,13 @@ mod boot {
         else {
             board::fail("the partitions were taken twice")
         };
-        if !board::active_holds_image(&mut active) {
-            if let Err(why) = board::install_first_image(&mut active) {
-                board::fail(why);
-            }
-        }
+        // The swap or rollback a reset interrupted is finished first: its
+        // last step erases the active partition's first page and copies
+        // it again, so a power cut there leaves no vector table until
+        // this has run (`cargo power-cut -- --all` on the rehosted H743
+        // found the board halted at "no image" when the check came
+        // first, and the QEMU board would have written its factory image
+        // over the half-swapped partition).
         let mut page = Buffer([0; board::COPY_BUFFER]);
         let config = BootLoaderConfig {
             active: &mut active,
@@ -51,6 +54,11 @@ mod boot {
         };
         if rri_update::boot::prepare(config, &mut page.0).is_err() {
             board::fail("the swap's state could not be read or finished (flash error)");
+        }
+        if !board::active_holds_image(&mut active) {
+            if let Err(why) = board::install_first_image(&mut active) {
+                board::fail(why);
+            }
         }
         board::start_active(active)
     }
