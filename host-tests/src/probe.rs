@@ -147,16 +147,32 @@ pub struct ProbeRun {
 impl ProbeRun {
     /// Starts `cmd` (see [`command`]); probe-rs's own progress goes to this
     /// terminal's stderr, the log lines into the device's log.
+    ///
+    /// Its stderr lines go into the log as well: the rehosting engine
+    /// says there why it stopped the image, and a run's failure prints
+    /// the log's tail, which must show it (a CI run once failed with
+    /// only "the device does not answer" in its tail, the engine's reason
+    /// hundreds of lines above).
     pub fn start(mut cmd: Command) -> Result<ProbeRun, String> {
         let mut child = cmd
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
+            .stderr(Stdio::piped())
             .spawn()
             .map_err(|e| format!("cannot start {}: {e}", program()))?;
         let stdout = child.stdout.take().ok_or("no stdout from probe-rs")?;
+        let stderr = child.stderr.take().ok_or("no stderr from probe-rs")?;
         let new_lines = Arc::new(Mutex::new(Vec::new()));
         let all = Arc::new(Mutex::new(Vec::new()));
+        let a = all.clone();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                eprintln!("{line}");
+                if let Ok(mut v) = a.lock() {
+                    v.push(format!("(stderr) {line}"));
+                }
+            }
+        });
         let (n, a) = (new_lines.clone(), all.clone());
         let reader = std::thread::spawn(move || {
             for line in BufReader::new(stdout).lines().map_while(Result::ok) {

@@ -346,7 +346,7 @@ pub fn run_all(setup: &Setup, board: Board) -> Result<(), String> {
         images.c_version,
         images.c_file.display()
     );
-    let (device, to, http): (Box<dyn Device>, SocketAddr, Option<SocketAddr>) = match board {
+    let (mut device, to, http): (Box<dyn Device>, SocketAddr, Option<SocketAddr>) = match board {
         Board::Qemu => {
             println!("== the QEMU board's flash (hal-board/memory/mps2-an500-flash.x):");
             let boot = crate::qemu_flash::bootloader()?;
@@ -394,8 +394,12 @@ pub fn run_all(setup: &Setup, board: Board) -> Result<(), String> {
     let result = course(setup, board, &images, to, http, &mut |l| {
         println!("update-swap: {l}")
     });
+    let exited = device.stopped();
     let log = device.stop();
     if result.is_err() {
+        if let Some(exited) = exited {
+            println!("== {exited}");
+        }
         println!("== the device's log (decoded with A's table):");
         for line in log
             .iter()
