@@ -156,6 +156,21 @@ pub fn points(runs: &[Run], phase: Phase, all: bool) -> Vec<(u64, String)> {
                         "half-way through the first active page's program".into(),
                     ));
                 }
+                // The swap's last step erases the active partition's
+                // first page and copies it again: until it is finished
+                // there is no vector table to start. A bootloader that
+                // looked for an image before finishing the swap halted
+                // here (`--all` found it at the H743's operation 45,080).
+                if let Some(r) = mine
+                    .iter()
+                    .rev()
+                    .find(|r| !r.erase && r.partition == "active")
+                {
+                    at.push((
+                        r.first,
+                        "the first program of the swap's last active page, which holds the vector table".into(),
+                    ));
+                }
                 if let Some(r) = mine
                     .iter()
                     .rev()
@@ -269,17 +284,23 @@ mod tests {
 
     #[test]
     fn the_swap_and_the_confirmation_are_cut_where_they_are_fragile() {
+        // Two pages, as embassy-boot swaps them: the second page of the
+        // active partition first, its first page last.
         let ops = census(&[
             ("erase", 0x0810_0000, false),
             ("program", 0x0810_0000, false),
             ("program", 0x081E_0000, false),
+            ("erase", 0x0804_0000, false),
+            ("program", 0x0804_0000, false),
+            ("program", 0x0804_0020, false),
+            ("program", 0x0804_0040, false),
+            ("program", 0x081E_0020, false),
             ("erase", 0x0802_0000, false),
             ("program", 0x0802_0000, false),
             ("program", 0x0802_0020, false),
-            ("program", 0x0802_0040, false),
-            ("program", 0x081E_0020, false),
             ("program", 0x081E_0040, false),
-            ("program", 0x081E_0060, true),
+            ("program", 0x081E_0060, false),
+            ("program", 0x081E_0080, true),
             ("erase", 0x081E_0000, true),
             ("program", 0x081E_0000, true),
         ]);
@@ -290,7 +311,10 @@ mod tests {
                 .map(|p| p.0)
                 .collect::<Vec<_>>()
         };
-        assert_eq!(at(Phase::Swap), [4, 6, 9]);
-        assert_eq!(at(Phase::Confirm), [10, 11]);
+        // The first erase of the active partition, half-way through its
+        // first page's program, the first program of its last page, the
+        // swap's last mark.
+        assert_eq!(at(Phase::Swap), [4, 6, 10, 13]);
+        assert_eq!(at(Phase::Confirm), [14, 15]);
     }
 }
