@@ -142,6 +142,9 @@ pub struct ProbeRun {
     new_lines: Arc<Mutex<Vec<String>>>,
     all: Arc<Mutex<Vec<String>>>,
     reader: Option<JoinHandle<()>>,
+    /// Its stderr's reader, joined at the stop as `reader` is, so that
+    /// the log is whole when it is returned.
+    err_reader: Option<JoinHandle<()>>,
 }
 
 impl ProbeRun {
@@ -165,7 +168,7 @@ impl ProbeRun {
         let new_lines = Arc::new(Mutex::new(Vec::new()));
         let all = Arc::new(Mutex::new(Vec::new()));
         let a = all.clone();
-        std::thread::spawn(move || {
+        let err_reader = std::thread::spawn(move || {
             for line in BufReader::new(stderr).lines().map_while(Result::ok) {
                 eprintln!("{line}");
                 if let Ok(mut v) = a.lock() {
@@ -191,6 +194,7 @@ impl ProbeRun {
             new_lines,
             all,
             reader: Some(reader),
+            err_reader: Some(err_reader),
         })
     }
 }
@@ -245,7 +249,10 @@ impl Device for ProbeRun {
     fn stop(mut self: Box<Self>) -> Vec<String> {
         let _ = self.child.kill();
         let _ = self.child.wait();
-        if let Some(r) = self.reader.take() {
+        for r in [self.reader.take(), self.err_reader.take()]
+            .into_iter()
+            .flatten()
+        {
             let _ = r.join();
         }
         self.log()
@@ -312,5 +319,27 @@ mod tests {
             assert!(!m.line().contains('\n'), "{}", m.line());
         }
         assert!(Missing::ProbeRs("probe-rs".into()).line().contains(INSTALL));
+    }
+
+    #[test]
+    fn the_log_keeps_what_the_program_said_on_stderr() {
+        // As the rehosting engine says why it stopped an image.
+        let mut cmd = Command::new("sh");
+        cmd.args([
+            "-c",
+            "echo '[0.1 INFO] up'; echo 'rehost: stopped: a rule' >&2",
+        ]);
+        let mut run = ProbeRun::start(cmd).unwrap();
+        // It ends by itself, as an engine that stopped the image does.
+        let end = Instant::now() + Duration::from_secs(10);
+        while run.stopped().is_none() && Instant::now() < end {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let log = Box::new(run).stop();
+        assert!(log.contains(&"[0.1 INFO] up".to_string()), "{log:?}");
+        assert!(
+            log.contains(&"(stderr) rehost: stopped: a rule".to_string()),
+            "{log:?}"
+        );
     }
 }
