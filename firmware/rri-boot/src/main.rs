@@ -22,7 +22,6 @@
 
 #[cfg(target_os = "none")]
 mod boot {
-    use embassy_boot::BootLoaderConfig;
     use hal_board::board;
 
     /// embassy-boot's copy buffer (a divisor of its swap page).
@@ -39,26 +38,20 @@ mod boot {
         else {
             board::fail("the partitions were taken twice")
         };
-        // The swap or rollback a reset interrupted is finished first: its
-        // last step erases the active partition's first page and copies
-        // it again, so a power cut there leaves no vector table until
-        // this has run (`cargo power-cut -- --all` on the rehosted H743
-        // found the board halted at "no image" when the check came
-        // first, and the QEMU board would have written its factory image
-        // over the half-swapped partition).
+        // The swap or rollback a reset interrupted is finished before the
+        // active partition is checked for an image (`rri_update::boot::
+        // start` says why, and the host's power-cut test runs the same
+        // order).
         let mut page = Buffer([0; board::COPY_BUFFER]);
-        let config = BootLoaderConfig {
-            active: &mut active,
-            dfu,
-            state,
-        };
-        if rri_update::boot::prepare(config, &mut page.0).is_err() {
-            board::fail("the swap's state could not be read or finished (flash error)");
-        }
-        if !board::active_holds_image(&mut active) {
-            if let Err(why) = board::install_first_image(&mut active) {
-                board::fail(why);
+        let started = rri_update::boot::start(&mut active, dfu, state, &mut page.0, |active| {
+            if board::active_holds_image(active) {
+                Ok(())
+            } else {
+                board::install_first_image(active)
             }
+        });
+        if let Err(halt) = started {
+            board::fail(halt.why());
         }
         board::start_active(active)
     }

@@ -32,6 +32,54 @@ pub struct Started {
     pub recovered: bool,
 }
 
+/// Why a start halts: the bootloader says [`Halt::why`] and stops.
+#[derive(Debug, PartialEq, Eq)]
+pub enum Halt {
+    /// The swap's state could not be read, or its swap finished.
+    Flash(BootError),
+    /// The active partition holds no image, and the board could not put
+    /// its first one there: the board's reason (how the first image goes
+    /// on).
+    NoImage(&'static str),
+}
+
+impl Halt {
+    /// The sentence the bootloader halts with.
+    pub fn why(&self) -> &'static str {
+        match self {
+            Halt::Flash(_) => "the swap's state could not be read or finished (flash error)",
+            Halt::NoImage(why) => why,
+        }
+    }
+}
+
+/// Every start of every board's bootloader, in the order a power cut
+/// requires: first the swap or rollback a reset interrupted, finished
+/// ([`prepare`]), because the swap's last step erases the active
+/// partition's first page and copies it again, so a cut there leaves no
+/// vector table until this has run; only then `image`, the board's check
+/// that the active partition holds an image (or its putting the first one
+/// there): `Err` says why not. The other order halted the rehosted H743 at
+/// "no image" after a cut at the swap's last page (`cargo power-cut --
+/// --all`), and would write the QEMU board's factory image over a
+/// half-swapped partition. On `Ok` the active image is the one to jump to.
+pub fn start<A: NorFlash, D: NorFlash, S: NorFlash>(
+    active: &mut A,
+    dfu: D,
+    state: S,
+    page: &mut [u8],
+    image: impl FnOnce(&mut A) -> Result<(), &'static str>,
+) -> Result<Started, Halt> {
+    let config = BootLoaderConfig {
+        active: &mut *active,
+        dfu,
+        state,
+    };
+    let started = prepare(config, page).map_err(Halt::Flash)?;
+    image(active).map_err(Halt::NoImage)?;
+    Ok(started)
+}
+
 /// The state partition's word buffer, aligned as flash drivers want.
 #[repr(C, align(32))]
 struct Word([u8; WORD_MAX]);

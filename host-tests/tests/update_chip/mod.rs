@@ -2,8 +2,10 @@
 //! partitions on the host's flash model, its power, the device's and the
 //! bootloader's steps on it, and the update files it is offered.
 
-use embassy_boot::{BootLoaderConfig, FirmwareUpdaterConfig, State};
+use embassy_boot::{FirmwareUpdaterConfig, State};
+use embedded_storage::nor_flash::ReadNorFlash;
 use host_tests::flash_model::{Flash, Power};
+use rri_update::boot::Halt;
 use rri_update::{sign, Refused, Running, Trailer, Upload, Version};
 use std::rc::Rc;
 
@@ -58,6 +60,19 @@ pub fn file_at(
     [image, trailer.to_vec(), signature.to_vec()].concat()
 }
 
+/// The host's stand-in for a board's vector-table check
+/// (`hal_board::boot::looks_like_image`): this model's images are
+/// patterns, not programs, so an image is there when the partition's first
+/// word reads and is not erased. The word the swap's last step erases
+/// first, and copies last.
+fn holds_image(active: &mut F) -> Result<(), &'static str> {
+    let mut first = [0u8; WORD];
+    match active.read(0, &mut first) {
+        Ok(()) if first.iter().any(|&b| b != 0xFF) => Ok(()),
+        _ => Err("no image in the active partition"),
+    }
+}
+
 /// One chip: its three partitions and its power.
 pub struct Chip {
     pub power: Rc<Power>,
@@ -81,18 +96,20 @@ impl Chip {
         }
     }
 
-    /// A start: our bootloader's preparation (`rri_update::boot`:
-    /// embassy-boot's, after finishing a rollback or confirmation a cut
-    /// interrupted). Counts the starts that needed that.
-    pub fn boot(&mut self) -> Result<State, embassy_boot::BootError> {
+    /// A start, as our bootloader makes it (`rri_update::boot::start`,
+    /// the order `rri-boot` runs): the interrupted swap, rollback or
+    /// confirmation finished, then the active partition checked for an
+    /// image, which halts the start when it holds none (a NUCLEO's
+    /// bootloader has no first image to put there). Counts the starts that
+    /// finished an interrupted rollback or confirmation.
+    pub fn boot(&mut self) -> Result<State, Halt> {
         let mut buf = [0; 512];
-        let started = rri_update::boot::prepare(
-            BootLoaderConfig {
-                active: &mut self.active,
-                dfu: &mut self.dfu,
-                state: &mut self.state,
-            },
+        let started = rri_update::boot::start(
+            &mut self.active,
+            &mut self.dfu,
+            &mut self.state,
             &mut buf,
+            holds_image,
         )?;
         self.recovered += u32::from(started.recovered);
         Ok(started.state)
