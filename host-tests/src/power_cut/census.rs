@@ -124,11 +124,9 @@ pub fn points(runs: &[Run], phase: Phase, all: bool) -> Vec<(u64, String)> {
         .iter()
         .filter(|r| r.by_bootloader == (phase == Phase::Swap))
         .collect();
-    let first = |erase: bool, partition: &str| {
-        mine.iter()
-            .find(|r| r.erase == erase && r.partition == partition)
-            .copied()
-    };
+    let is = |r: &&&Run, erase: bool, partition: &str| r.erase == erase && r.partition == partition;
+    let first = |erase, partition| mine.iter().find(|r| is(r, erase, partition)).copied();
+    let last = |erase, partition| mine.iter().rev().find(|r| is(r, erase, partition)).copied();
     let mut at: Vec<(u64, String)> = Vec::new();
     if all {
         for r in &mine {
@@ -161,21 +159,13 @@ pub fn points(runs: &[Run], phase: Phase, all: bool) -> Vec<(u64, String)> {
                 // there is no vector table to start. A bootloader that
                 // looked for an image before finishing the swap halted
                 // here (`--all` found it at the H743's operation 45,080).
-                if let Some(r) = mine
-                    .iter()
-                    .rev()
-                    .find(|r| !r.erase && r.partition == "active")
-                {
+                if let Some(r) = last(false, "active") {
                     at.push((
                         r.first,
                         "the first program of the swap's last active page, which holds the vector table".into(),
                     ));
                 }
-                if let Some(r) = mine
-                    .iter()
-                    .rev()
-                    .find(|r| !r.erase && r.partition == "state")
-                {
+                if let Some(r) = last(false, "state") {
                     at.push((r.last, "the swap's last mark in the state partition".into()));
                 }
             }
