@@ -70,8 +70,12 @@ fn settle(uc: &mut Unicorn<State>) {
         // The power fails as the operation starts: nothing of it gets to
         // the array, nor anything after it; what ended before it in the
         // same access (an erase) does. The machine powers the chip off
-        // before the next block.
-        writes.truncate(s.shared.flash.kept.take().unwrap_or(0));
+        // before the next block. With `--tear` it fails inside the
+        // operation: its words are torn, and a program's bytes reach the
+        // array half-made ([`crate::torn_word`]).
+        let kept = s.shared.flash.kept.take().unwrap_or(0);
+        let own = s.shared.flash.tear && crate::torn_word::tear(&mut s.shared.flash);
+        writes.truncate(kept + usize::from(own));
         s.deadline = s.now;
     } else {
         s.now += stall;

@@ -57,6 +57,21 @@ pub struct FlashOps {
     pub kept: Option<usize>,
     /// With `--flash-census`: each operation.
     pub census: Option<Vec<CensusOp>>,
+    /// `--tear`: the cut tears the operation it falls on instead of
+    /// stopping it before it starts ([`crate::torn_word`]).
+    pub tear: bool,
+    /// The operation the cut fell on: its address, its length, whether
+    /// an erase.
+    pub cut_op: Option<(u32, u32, bool)>,
+    /// The flash words (their first addresses) a torn operation left
+    /// with an ECC that does not match their bits, until their sector is
+    /// erased. Kept across power cycles, as the array keeps them.
+    pub torn: std::collections::BTreeSet<u32>,
+    /// Reads of torn words the flash controller has not yet flagged
+    /// (the address read), for its error flags (`FLASH_SR`'s DBECCERR).
+    pub ecc_errors: Vec<u32>,
+    /// Reads of torn words by the core, over the run.
+    pub ecc_reads: u64,
 }
 
 /// One flash operation, as `--flash-census` lists it.

@@ -8,7 +8,7 @@
 //! branches to EXC_RETURN (B1.5.8; unicorn raises its exception #8 then).
 //! Fuzzware's `cortexm_nvic.c` was read for the shape of a software NVIC.
 
-use crate::fault::{Fault, FORCED, MEM_MANAGE, MSTKERR, USAGE_FAULT};
+use crate::fault::{Fault, BUS_FAULT, FORCED, MEM_MANAGE, MSTKERR, USAGE_FAULT};
 use crate::state::State;
 use unicorn_engine::{RegisterARM, Unicorn};
 
@@ -222,7 +222,7 @@ pub fn take_fault(uc: &mut Unicorn<State>, f: Fault) -> Result<(), String> {
     let s = uc.get_data_mut();
     let enable_bit = match f.exc {
         MEM_MANAGE => 16,
-        5 => 17,
+        BUS_FAULT => 17,
         USAGE_FAULT => 18,
         _ => 0,
     };
@@ -234,6 +234,7 @@ pub fn take_fault(uc: &mut Unicorn<State>, f: Fault) -> Result<(), String> {
     };
     let name = match f.exc {
         MEM_MANAGE => "MemManage",
+        BUS_FAULT => "BusFault",
         USAGE_FAULT => "UsageFault",
         _ => "a fault",
     };
@@ -246,6 +247,9 @@ pub fn take_fault(uc: &mut Unicorn<State>, f: Fault) -> Result<(), String> {
     s.scs.cfsr |= f.cfsr;
     if let Some(a) = f.mmfar {
         s.scs.mmfar = a;
+    }
+    if let Some(a) = f.bfar {
+        s.scs.bfar = a;
     }
     if exc == HARD_FAULT {
         s.scs.hfsr |= FORCED;

@@ -38,22 +38,22 @@ pub fn sets_a_cleared_bit(old: &[u8], value: &[u8]) -> Option<usize> {
 /// anything of it reaches the array ([`crate::bus::FlashOps`]).
 pub fn start(cx: &mut Cx, us: u64, erase: Option<(u32, u32)>, stalls: bool) -> Busy {
     cx.flash.started += 1;
+    // A program's bytes are handed over just before it starts.
+    let (addr, len) = match erase {
+        Some(e) => e,
+        None => cx
+            .program
+            .last()
+            .map(|(a, b)| (*a, b.len() as u32))
+            .unwrap_or_default(),
+    };
     if cx.flash.cut_at == Some(cx.flash.started) {
         cx.flash.cut = true;
-        // A program's own bytes were handed over just before it starts.
         let own = usize::from(erase.is_none());
         cx.flash.kept = Some(cx.program.len().saturating_sub(own));
+        cx.flash.cut_op = Some((addr, len, erase.is_some()));
     }
     if let Some(census) = &mut cx.flash.census {
-        // A program's bytes are handed over just before it starts.
-        let (addr, len) = match erase {
-            Some(e) => e,
-            None => cx
-                .program
-                .last()
-                .map(|(a, b)| (*a, b.len() as u32))
-                .unwrap_or_default(),
-        };
         // The PC is the machine's to fill in after the access.
         census.push(crate::bus::CensusOp {
             n: cx.flash.started,
@@ -80,6 +80,10 @@ pub fn finish(busy: &mut Option<Busy>, cx: &mut Cx) -> bool {
         Some(b) if cx.now >= b.until => {
             if let Some((base, len)) = b.erase {
                 cx.program.push((base, vec![0xFF; len as usize]));
+                // An erase gives every word of its sector a matching ECC
+                // again: a torn word is mended.
+                let end = base.saturating_add(len);
+                cx.flash.torn.retain(|&w| w < base || w >= end);
             }
             *busy = None;
             true

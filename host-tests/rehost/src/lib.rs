@@ -35,4 +35,5 @@ pub mod state;
 pub mod stop;
 pub mod syscfg;
 pub mod timer;
+pub mod torn_word;
 pub mod wiring;

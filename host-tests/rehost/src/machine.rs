@@ -91,6 +91,7 @@ impl Machine {
             slices: 0,
             recent: std::collections::VecDeque::new(),
             instruction_hooks: std::collections::BTreeMap::new(),
+            torn_hook: None,
             code_changed: Vec::new(),
         };
         fn e(what: &'static str) -> impl Fn(unicorn_engine::uc_error) -> String {
@@ -339,11 +340,17 @@ impl Machine {
             };
             let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
             let s = self.uc.get_data();
+            let torn = &s.shared.flash.torn;
             self.notes.push(format!(
-                "power cut at flash operation {} (cycle {}, {}): the chip powers up again, the SRAM lost, the flash kept",
+                "power cut at flash operation {} (cycle {}, {}){}: the chip powers up again, the SRAM lost, the flash kept",
                 s.shared.flash.cut_at.unwrap_or(s.shared.flash.started),
                 s.now,
-                s.image.describe(pc)
+                s.image.describe(pc),
+                match (torn.first(), torn.len()) {
+                    (Some(first), n) if s.shared.flash.tear =>
+                        format!(", tearing it: {n} flash words torn from {first:#010x}"),
+                    _ => String::new(),
+                }
             ));
             // What the image logged before the cut is read; the decoder
             // then starts afresh (a frame cut in half is gone with the
@@ -352,7 +359,8 @@ impl Machine {
                 self.log.extend(rtt.lines(&mut self.uc));
                 rtt.restart();
             }
-            return crate::reset::power_cycle(&mut self.uc, fresh());
+            crate::reset::power_cycle(&mut self.uc, fresh())?;
+            return crate::torn_word::watch(&mut self.uc);
         }
         let cause = if s.scs.reset_requested {
             Some(ResetCause::Software)

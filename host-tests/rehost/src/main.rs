@@ -116,6 +116,14 @@ struct Args {
     /// its flash kept, and the run goes on (issue 43's power cuts).
     #[arg(long)]
     power_cut: Option<u64>,
+    /// The power cut tears the operation it falls on instead of stopping
+    /// it before it starts: the H743's flash words it reaches are left
+    /// with bits their ECC disagrees with, each read of one a double ECC
+    /// error (a bus fault unless ignored), until the sector's erase. The
+    /// H743 only: the F767's flash has no ECC, and its half-programmed
+    /// bits are not modelled.
+    #[arg(long, requires = "power_cut")]
+    tear: bool,
     /// Write every flash operation of the run to this file, one a line:
     /// its number, `erase` or `program`, its address, its length and the
     /// PC that started it (where to aim `--power-cut`).
@@ -154,6 +162,12 @@ fn main() {
         ),
         (other, _) => fail(2, &format!("no board {other:?} (f767 or h743)")),
     };
+    if args.tear && args.board != "h743" {
+        fail(
+            2,
+            "--tear: the H743 only (its ECC makes a torn word read as an error; the F767's flash has no ECC, and its half-programmed bits are not modelled)",
+        );
+    }
     let elf = args.elf.unwrap_or_else(|| {
         PathBuf::from(format!(
             "target/{dir}/thumbv7em-none-eabihf/firmware/rri-sensor"
@@ -181,6 +195,7 @@ fn main() {
     {
         let flash = &mut m.uc.get_data_mut().shared.flash;
         flash.cut_at = args.power_cut;
+        flash.tear = args.tear;
         if args.flash_census.is_some() {
             flash.census = Some(Vec::new());
         }
@@ -374,6 +389,13 @@ fn main() {
         }
         let flash = &m.uc.get_data().shared.flash;
         eprintln!("rehost: {} flash operations", flash.started);
+        if flash.tear {
+            eprintln!(
+                "rehost: {} reads of torn flash words (double ECC errors), {} torn words left",
+                flash.ecc_reads,
+                flash.torn.len()
+            );
+        }
         if let (Some(path), Some(census)) = (&args.flash_census, &flash.census) {
             let text: String = census
                 .iter()

@@ -77,6 +77,7 @@ pub fn on_write(uc: &mut Unicorn<State>, addr: u64, size: usize, value: i64) -> 
                 why: describe(&d, addr, size, sp),
                 cfsr: DACCVIOL | MMARVALID,
                 mmfar: Some(addr as u32),
+                bfar: None,
             });
             let _ = uc.emu_stop();
             false

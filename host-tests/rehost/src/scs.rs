@@ -72,6 +72,9 @@ pub struct Scs {
     pub fpccr: u32,
     pub fpcar: u32,
     pub fpdscr: u32,
+    /// BFAR: the address of the last precise bus fault (a torn H743
+    /// flash word's read, `crate::torn_word`).
+    pub bfar: u32,
     pub pendsv: bool,
     pub systick: SysTick,
     pub mpu_ctrl: u32,
@@ -130,6 +133,7 @@ impl Scs {
             fpccr: 0xC000_0000,
             fpcar: 0,
             fpdscr: 0,
+            bfar: 0,
             pendsv: false,
             systick: SysTick::default(),
             mpu_ctrl: 0,
@@ -200,8 +204,9 @@ impl Scs {
             0xE000_ED28 => self.cfsr,
             0xE000_ED2C => self.hfsr,
             0xE000_ED34 => self.mmfar,
-            // DFSR, BFAR, AFSR: no debug event or bus fault is modelled.
-            0xE000_ED30 | 0xE000_ED38 | 0xE000_ED3C => 0,
+            0xE000_ED38 => self.bfar,
+            // DFSR, AFSR: no debug event is modelled.
+            0xE000_ED30 | 0xE000_ED3C => 0,
             0xE000_ED78 => 0x0900_0003, // CLIDR: L1 instruction and data caches
             0xE000_ED7C => 0x8303_C003, // CTR
             0xE000_ED80 => {

@@ -72,6 +72,9 @@ pub struct State {
     pub instruction_hooks: std::collections::BTreeMap<u64, unicorn_engine::UcHookId>,
     /// Flash written since the hooks last followed it: (start, end).
     pub code_changed: Vec<(u64, u64)>,
+    /// The read hook on the torn flash words and the span it watches
+    /// ([`crate::torn_word::watch`]).
+    pub torn_hook: Option<(unicorn_engine::UcHookId, u64, u64)>,
 }
 
 impl State {

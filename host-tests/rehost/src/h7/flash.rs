@@ -23,6 +23,13 @@
 //!
 //! FLASH_SR is read-only: a write to it (embassy-stm32 writes back what
 //! it read) changes nothing, as on silicon; flags clear through CCR.
+//!
+//! ECC: a read of a flash word a power cut tore (`--tear`,
+//! [`crate::torn_word`]) is a double ECC error: the bank's DBECCERR is
+//! set and FLASH_ECC_FA holds the word's index in the bank (256-bit
+//! units, 15 bits; ST's SVD), both cleared by CLR_DBECCERR in CCR; with
+//! DBECCERRIE the flash's interrupt is raised. A torn word is programmed
+//! again only after its sector's erase.
 
 use crate::bus::{reg, Cx, Peripheral, Refusal, Reg, Regs};
 use crate::flash_array::{self, Busy};
@@ -39,16 +46,19 @@ const FLASH_TABLE: &[Reg] = &[
     reg(0x10, "SR1", 0, 0, 0x1FEF_000F),
     reg(0x14, "CCR1", 0, 0x1FEF_0000, 0),
     reg(0x18, "OPTCR", 0x0000_0001, 0xC000_0013, 0),
+    reg(0x60, "ECC_FA1R", 0, 0, 0x0000_7FFF),
     reg(0x104, "KEYR2", 0, 0xFFFF_FFFF, 0),
     reg(0x10C, "CR2", 0x0000_0031, 0x1FEF_C7FF, 0),
     reg(0x110, "SR2", 0, 0, 0x0FEF_000F),
     reg(0x114, "CCR2", 0, 0x0FEF_0000, 0),
+    reg(0x160, "ECC_FA2R", 0, 0, 0x0000_7FFF),
 ];
 
 const KEYR: u32 = 0x04;
 const CR: u32 = 0x0C;
 const SR: u32 = 0x10;
 const CCR: u32 = 0x14;
+const ECC_FA: u32 = 0x60;
 
 const CR_LOCK: u32 = 1 << 0;
 const CR_PG: u32 = 1 << 1;
@@ -67,6 +77,8 @@ const SR_WBNE: u32 = 1 << 1;
 const SR_QW: u32 = 1 << 2;
 const SR_EOP: u32 = 1 << 16;
 const SR_INCERR: u32 = 1 << 21;
+/// SR's DBECCERR; CR's DBECCERRIE, CCR's CLR_DBECCERR at the same bit.
+const SR_DBECCERR: u32 = 1 << 26;
 
 const KEY1: u32 = 0x4567_0123;
 const KEY2: u32 = 0xCDEF_89AB;
@@ -128,6 +140,25 @@ impl Flash {
     /// Bank `b`'s offset of register `r` (bank 1's offset).
     fn at(b: usize, r: u32) -> u32 {
         r + 0x100 * b as u32
+    }
+
+    /// The core's reads of torn words since the last access
+    /// ([`crate::torn_word`]): each bank's DBECCERR and failing address.
+    fn ecc(&mut self, cx: &mut Cx) {
+        for word in std::mem::take(&mut cx.flash.ecc_errors) {
+            let Some(offset) = word.checked_sub(BANK1).filter(|o| *o < 2 * BANK_SIZE) else {
+                continue;
+            };
+            let b = (offset / BANK_SIZE) as usize;
+            self.regs.set_bits(Self::at(b, SR), SR_DBECCERR, true);
+            self.regs.set(
+                Self::at(b, ECC_FA),
+                ((offset % BANK_SIZE) / FLASH_WORD) & 0x7FFF,
+            );
+            if self.regs.get(Self::at(b, CR)) & SR_DBECCERR != 0 {
+                cx.raise.push(FLASH_IRQ);
+            }
+        }
     }
 
     fn end(&mut self, b: usize, cx: &mut Cx) {
@@ -223,6 +254,11 @@ impl Flash {
             self.end(b, cx);
         }
         let word = addr & !(FLASH_WORD - 1);
+        if cx.flash.torn.contains(&word) {
+            return Err(format!(
+                "programs {addr:#010x}, in a flash word a power cut tore (its bits and ECC disagree): it is programmed again only after its sector's erase"
+            ));
+        }
         if (addr + size - 1) & !(FLASH_WORD - 1) != word {
             return Err(format!(
                 "a {size}-byte store at {addr:#010x} crosses a 256-bit flash word"
@@ -279,7 +315,8 @@ impl Peripheral for Flash {
         "FLASH"
     }
 
-    fn read(&mut self, offset: u32, size: u32, _cx: &mut Cx) -> Result<u32, Refusal> {
+    fn read(&mut self, offset: u32, size: u32, cx: &mut Cx) -> Result<u32, Refusal> {
+        self.ecc(cx);
         self.regs.read("FLASH", alias(offset), size)
     }
 
@@ -319,9 +356,15 @@ impl Peripheral for Flash {
                 self.regs.read("FLASH", offset, size).map(|_| ())
             }
             CCR => {
+                self.ecc(cx);
                 let (_, new) = self.regs.write("FLASH", offset, size, value)?;
-                // A 1 clears the flag of the same position in SR.
+                // A 1 clears the flag of the same position in SR; the
+                // failing address goes with the ECC flags (ST's SVD:
+                // reset once neither SNECCERR nor DBECCERR is set).
                 self.regs.set_bits(Self::at(b, SR), new, false);
+                if self.regs.get(Self::at(b, SR)) & (SR_DBECCERR | SR_DBECCERR >> 1) == 0 {
+                    self.regs.set(Self::at(b, ECC_FA), 0);
+                }
                 self.regs.set(offset & !3, 0);
                 Ok(())
             }
@@ -336,6 +379,7 @@ impl Peripheral for Flash {
     }
 
     fn advance(&mut self, cx: &mut Cx) -> Result<(), Refusal> {
+        self.ecc(cx);
         self.end(0, cx);
         self.end(1, cx);
         Ok(())
@@ -364,104 +408,4 @@ impl Peripheral for Flash {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    type Bench = crate::flash_array::testing::Bench<Flash>;
-
-    fn bench() -> Bench {
-        Bench::new(Flash::new(), 64_000_000)
-    }
-
-    fn unlock(b: &mut Bench, bank: u32) {
-        b.unlock_at(KEYR + 0x100 * bank, [KEY1, KEY2]);
-    }
-
-    /// A word stored into erased flash.
-    fn store(b: &mut Bench, addr: u32, value: u32) -> Result<(), Refusal> {
-        b.store(addr, 4, u64::from(value), &[0xFF; 4])
-    }
-
-    const SR2: u32 = SR + 0x100;
-    const CR2: u32 = CR + 0x100;
-
-    #[test]
-    fn eight_words_fill_the_buffer_and_program_one_flash_word() {
-        let mut b = bench();
-        unlock(&mut b, 1);
-        b.w(CR2, CR_PG | (2 << 4)).unwrap();
-        for i in 0..7 {
-            store(&mut b, 0x0810_0000 + 4 * i, i).unwrap();
-        }
-        assert!(b.shared.program.is_empty());
-        assert_eq!(b.r(SR2) & (SR_WBNE | SR_QW | SR_BSY), SR_WBNE);
-        store(&mut b, 0x0810_001C, 7).unwrap();
-        assert_eq!(b.shared.program.len(), 1);
-        assert_eq!(b.shared.program[0].0, 0x0810_0000);
-        assert_eq!(&b.shared.program[0].1[..8], &[0, 0, 0, 0, 1, 0, 0, 0]);
-        assert_eq!(b.r(SR2) & (SR_WBNE | SR_QW | SR_BSY), SR_QW | SR_BSY);
-        // Bank 2: the core, in bank 1, does not wait.
-        assert_eq!(b.shared.stall, 0);
-        b.now += 64 * program_us(2);
-        assert_eq!(b.r(SR2) & (SR_QW | SR_BSY | SR_EOP), SR_EOP);
-        b.w(CCR + 0x100, SR_EOP).unwrap();
-        assert_eq!(b.r(SR2) & SR_EOP, 0);
-    }
-
-    #[test]
-    fn another_flash_word_before_the_buffer_is_full_is_an_inconsistency() {
-        let mut b = bench();
-        unlock(&mut b, 1);
-        b.w(CR2, CR_PG).unwrap();
-        store(&mut b, 0x0810_0000, 1).unwrap();
-        store(&mut b, 0x0810_0020, 2).unwrap();
-        assert_ne!(b.r(SR2) & SR_INCERR, 0);
-        assert!(b.shared.program.is_empty());
-    }
-
-    #[test]
-    fn locked_banks_unerased_words_and_stores_without_pg_are_refused() {
-        let mut b = bench();
-        let e = b.w(CR, CR_PG).unwrap_err();
-        assert!(e.contains("while locked"), "{e}");
-        unlock(&mut b, 0);
-        // Bank 2 is still locked.
-        let e = store(&mut b, 0x0810_0000, 0).unwrap_err();
-        assert!(e.contains("bank 2") && e.contains("locked"), "{e}");
-        let e = store(&mut b, 0x0804_0000, 0).unwrap_err();
-        assert!(e.contains("without FLASH_CR1.PG"), "{e}");
-        b.w(CR, CR_PG).unwrap();
-        let mut cx = b.shared.cx(0, crate::bus::no_dma());
-        let e = b
-            .flash
-            .store(0x0804_0000, 4, 0, &[0xFF, 0xFF, 0x00, 0xFF], &mut cx)
-            .unwrap()
-            .unwrap_err();
-        assert!(e.contains("programmed once after an erase"), "{e}");
-        let e = b.w(KEYR, KEY1).unwrap_err();
-        assert!(e.contains("bus error"), "{e}");
-    }
-
-    #[test]
-    fn a_sector_erase_in_bank_1_stalls_the_core_and_in_bank_2_does_not() {
-        let mut b = bench();
-        unlock(&mut b, 0);
-        unlock(&mut b, 1);
-        b.w(CR2, CR_SER | (3 << 8)).unwrap();
-        b.w(CR2, CR_SER | (3 << 8) | CR_START).unwrap();
-        assert_eq!(b.shared.stall, 0);
-        let e = b.w(CR2, 0).unwrap_err();
-        assert!(e.contains("busy"), "{e}");
-        b.w(CR, CR_SER | (1 << 8) | CR_EOPIE | CR_START).unwrap();
-        let len = 64 * erase_us(0);
-        assert_eq!(b.shared.stall, len);
-        b.now += len;
-        assert_eq!(b.r(SR) & SR_BSY, 0);
-        assert_eq!(b.r(SR2) & SR_BSY, 0);
-        // Bank 1's erase had EOPIE: the flash interrupt, once.
-        assert_eq!(b.shared.raised, vec![FLASH_IRQ]);
-        let erased: Vec<u32> = b.shared.program.iter().map(|p| p.0).collect();
-        assert_eq!(erased, vec![0x0802_0000, 0x0816_0000]);
-        assert!(b.shared.program.iter().all(|p| p.1.len() == 128 * 1024));
-    }
-}
+mod tests;
