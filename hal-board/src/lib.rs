@@ -133,6 +133,9 @@ pub mod nucleo_flash;
 #[cfg(all(feature = "nucleo-f767zi", target_os = "none"))]
 pub mod f7_erase;
 
+#[cfg(all(feature = "nucleo-h743zi", target_os = "none"))]
+pub mod h743_ecc;
+
 pub mod boot;
 
 #[cfg(all(

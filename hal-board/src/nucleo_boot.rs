@@ -58,8 +58,21 @@ impl ErrorType for BootFlash {
 impl ReadNorFlash for BootFlash {
     const READ_SIZE: usize = <Driver<'static, Blocking> as ReadNorFlash>::READ_SIZE;
 
+    /// The F767's plain; the H743's careful ([`crate::h743_ecc`]): a
+    /// word a power cut tore is `Prog` (embassy-stm32's own word for a
+    /// DBECCERR), not a fault, so `rri_update::boot` reads it as
+    /// programmed.
     fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
-        self.0.blocking_read(offset, bytes)
+        #[cfg(feature = "nucleo-f767zi")]
+        return self.0.blocking_read(offset, bytes);
+        #[cfg(feature = "nucleo-h743zi")]
+        {
+            let end = (offset as usize).checked_add(bytes.len());
+            if end.is_none_or(|e| e > self.0.capacity()) {
+                return Err(embassy_stm32::flash::Error::Size);
+            }
+            crate::h743_ecc::read(offset, bytes).map_err(|_| embassy_stm32::flash::Error::Prog)
+        }
     }
 
     fn capacity(&self) -> usize {

@@ -26,12 +26,14 @@
 //!
 //! `host-tests/tests/update_power_cut.rs` tears each of an update's flash
 //! operations against the host's flash model, which reports a torn word
-//! as a read error of kind `Other`. On the boards a torn word is not yet
-//! reported so: embassy-stm32 reads the flash with plain loads, and on
-//! the H743 a load of a double-ECC word is a precise bus fault. The read
-//! that catches it (bus faults ignored under `FAULTMASK`, then
-//! `FLASH_SR`'s `DBECCERR`) is not built: until it is, this adapter sees
-//! no torn word on a board.
+//! as a read error of kind `Other`. On the H743 both images read the
+//! flash carefully (`hal_board::h743_ecc`: bus faults ignored under
+//! `FAULTMASK`, then `FLASH_SR`'s `DBECCERR`), which reports a torn word
+//! so too, where embassy-stm32's plain loads would take a precise bus
+//! fault at every start; `cargo power-cut -- --tear` checks it on the
+//! rehosted chip, whose flash model has the ECC. The F767's flash has no
+//! ECC: a torn word there reads as some mix of its old and new bits,
+//! which neither this adapter nor the engine models.
 
 use embedded_storage::nor_flash::{
     ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,

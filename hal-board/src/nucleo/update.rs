@@ -62,12 +62,16 @@ pub struct BoardFlash(Option<Driver>);
 pub enum Error {
     NotStarted,
     Flash(embassy_stm32::flash::Error),
+    /// A word a power cut tore (the H743's double ECC error,
+    /// [`crate::h743_ecc`]): read as programmed by the update's state
+    /// reads (`rri_update::torn`).
+    DoubleEcc,
 }
 
 impl NorFlashError for Error {
     fn kind(&self) -> NorFlashErrorKind {
         match self {
-            Error::NotStarted => NorFlashErrorKind::Other,
+            Error::NotStarted | Error::DoubleEcc => NorFlashErrorKind::Other,
             Error::Flash(e) => e.kind(),
         }
     }
@@ -86,10 +90,20 @@ impl BoardFlash {
 impl ReadNorFlash for BoardFlash {
     const READ_SIZE: usize = <Driver as ReadNorFlash>::READ_SIZE;
 
+    /// The F767's plain; the H743's careful ([`crate::h743_ecc`]): a word
+    /// a power cut tore is [`Error::DoubleEcc`], not a fault.
     fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Error> {
-        self.driver()?
-            .blocking_read(offset, bytes)
-            .map_err(Error::Flash)
+        let driver = self.driver()?;
+        #[cfg(feature = "nucleo-f767zi")]
+        return driver.blocking_read(offset, bytes).map_err(Error::Flash);
+        #[cfg(feature = "nucleo-h743zi")]
+        {
+            let end = (offset as usize).checked_add(bytes.len());
+            if end.is_none_or(|e| e > driver.capacity()) {
+                return Err(Error::Flash(embassy_stm32::flash::Error::Size));
+            }
+            crate::h743_ecc::read(offset, bytes).map_err(|_| Error::DoubleEcc)
+        }
     }
 
     fn capacity(&self) -> usize {
