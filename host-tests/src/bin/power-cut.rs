@@ -1,4 +1,4 @@
-//! `cargo power-cut [-- --board f767] [-- --all]`: the power cut at a
+//! `cargo power-cut [-- --board f767] [-- --all] [-- --tear]`: the power cut at a
 //! flash operation of an update on a rehosted NUCLEO (issue 43: the
 //! NUCLEO-H743ZI2 by default, the F767 in dual-bank mode), and the board after
 //! it: the upload's cut must leave the old image answering and taking
@@ -36,6 +36,12 @@ struct Args {
     /// at the few chosen ones.
     #[arg(long)]
     all: bool,
+    /// Each cut tears the operation it falls on (the H743 only): the
+    /// flash words it reached are left with an ECC their bits disagree
+    /// with, each read of one a double ECC error until the sector's erase.
+    /// Without it the power fails as the operation starts.
+    #[arg(long)]
+    tear: bool,
 }
 
 fn main() -> ExitCode {
@@ -55,7 +61,12 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match power_cut::run_all(&setup, board, args.all) {
+    let kind = if args.tear {
+        power_cut::CutKind::Tearing
+    } else {
+        power_cut::CutKind::Before
+    };
+    match power_cut::run_all(&setup, board, args.all, kind) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");

@@ -148,12 +148,6 @@ pub fn points(runs: &[Run], phase: Phase, all: bool) -> Vec<(u64, String)> {
                 if let Some(r) = first(true, "active") {
                     at.push((r.first, "the first erase of the active partition".into()));
                 }
-                if let Some(r) = first(false, "active") {
-                    at.push((
-                        r.first + (r.last - r.first) / 2,
-                        "half-way through the first active page's program".into(),
-                    ));
-                }
                 // The swap's last step erases the active partition's
                 // first page and copies it again: until it is finished
                 // there is no vector table to start. A bootloader that
@@ -188,6 +182,24 @@ pub fn points(runs: &[Run], phase: Phase, all: bool) -> Vec<(u64, String)> {
     at.sort_by_key(|p| p.0);
     at.dedup_by_key(|p| p.0);
     at
+}
+
+/// The cut the default set tears (`power_cut::CutKind::Tearing`): the
+/// swap's last progress mark in the state partition, the bootloader's
+/// last write before it starts the new image. Torn, the word reads as a
+/// double ECC error on the H743: a plain read there faults at every start
+/// (the board bricked); the careful one (`hal_board::h743_ecc`) reads it
+/// as programmed, and the bootloader rolls the unconfirmed swap back.
+pub fn torn_point(runs: &[Run]) -> Option<(u64, String)> {
+    runs.iter()
+        .rev()
+        .find(|r| r.by_bootloader && !r.erase && r.partition == "state")
+        .map(|r| {
+            (
+                r.last,
+                "the swap's last mark in the state partition, torn".into(),
+            )
+        })
 }
 
 #[cfg(test)]
@@ -301,10 +313,10 @@ mod tests {
                 .map(|p| p.0)
                 .collect::<Vec<_>>()
         };
-        // The first erase of the active partition, half-way through its
-        // first page's program, the first program of its last page, the
-        // swap's last mark.
-        assert_eq!(at(Phase::Swap), [4, 6, 10, 13]);
+        // The first erase of the active partition, the first program of
+        // its last page, the swap's last mark; that mark again, torn.
+        assert_eq!(at(Phase::Swap), [4, 10, 13]);
         assert_eq!(at(Phase::Confirm), [14, 15]);
+        assert_eq!(torn_point(&r).map(|p| p.0), Some(13));
     }
 }
