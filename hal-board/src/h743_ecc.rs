@@ -22,7 +22,7 @@
 //! word as programmed, which leads embassy-boot to a whole image.
 //!
 //! The cost: the flags cleared and read around the copy, and interrupts
-//! held off (FAULTMASK masks all but NMI) for at most [`WINDOW`] bytes at
+//! held off (FAULTMASK masks all but NMI) for at most `WINDOW` bytes at
 //! a time. The reads are off the cycle's path (the upload and the
 //! confirmation run in the background executor); a window delays the
 //! cycle's interrupt by about a microsecond at most.

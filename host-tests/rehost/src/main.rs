@@ -116,12 +116,9 @@ struct Args {
     /// its flash kept, and the run goes on (issue 43's power cuts).
     #[arg(long)]
     power_cut: Option<u64>,
-    /// The power cut tears the operation it falls on instead of stopping
-    /// it before it starts: the H743's flash words it reaches are left
-    /// with bits their ECC disagrees with, each read of one a double ECC
-    /// error (a bus fault unless ignored), until the sector's erase. The
-    /// H743 only: the F767's flash has no ECC, and its half-programmed
-    /// bits are not modelled.
+    /// The power cut tears the operation it falls on (the H743 only):
+    /// its flash words are left with a bad ECC until their sector's
+    /// erase (`torn_word`: a read of one is a double ECC error).
     #[arg(long, requires = "power_cut")]
     tear: bool,
     /// Write every flash operation of the run to this file, one a line:
@@ -389,12 +386,8 @@ fn main() {
         }
         let flash = &m.uc.get_data().shared.flash;
         eprintln!("rehost: {} flash operations", flash.started);
-        if flash.tear {
-            eprintln!(
-                "rehost: {} reads of torn flash words (double ECC errors), {} torn words left",
-                flash.ecc_reads,
-                flash.torn.len()
-            );
+        if let Some(line) = rri_rehost::torn_word::summary(flash) {
+            eprintln!("rehost: {line}");
         }
         if let (Some(path), Some(census)) = (&args.flash_census, &flash.census) {
             let text: String = census

@@ -89,6 +89,18 @@ pub fn watch(uc: &mut Unicorn<State>) -> Result<(), String> {
     Ok(())
 }
 
+/// The run's torn words in a line (`--tear` runs only): reads of them,
+/// and how many are left.
+pub fn summary(flash: &FlashOps) -> Option<String> {
+    flash.tear.then(|| {
+        format!(
+            "{} reads of torn flash words (double ECC errors), {} torn words left",
+            flash.ecc_reads,
+            flash.torn.len()
+        )
+    })
+}
+
 /// A read by the core: a torn word's is flagged for the flash controller
 /// and faults, unless the core ignores bus faults where it runs.
 fn on_read(uc: &mut Unicorn<State>, addr: u32, size: u32) {
