@@ -13,8 +13,8 @@ pub(crate) enum Seen {
     Sleep,
     /// SEV: the event register.
     Sev,
-    /// CPSIE, or MSR to PRIMASK/BASEPRI/BASEPRI_MAX/FAULTMASK: a pending
-    /// interrupt may be taken at once.
+    /// CPSIE (i, f or both), or MSR to PRIMASK/BASEPRI/BASEPRI_MAX/
+    /// FAULTMASK: a pending interrupt may be taken at once.
     Unmask,
     /// YIELD: a NOP on the Cortex-M7, undefined to unicorn
     /// ([`step_over_yield`]).
@@ -32,7 +32,7 @@ pub(crate) fn seen(hw: u16, next: u16) -> Option<Seen> {
         Some(Seen::Sev)
     } else if hw == 0xBF10 {
         Some(Seen::Yield)
-    } else if hw == 0xB662
+    } else if (0xB661..=0xB663).contains(&hw)
         || (hw & 0xFFF0 == 0xF380
             && next & 0xFF00 == 0x8800
             && (0x10..=0x13).contains(&(next & 0xFF)))
@@ -261,6 +261,11 @@ mod tests {
         assert_eq!(seen(0xBF20, 0), Some(Seen::Sleep));
         assert_eq!(seen(0xBF40, 0), Some(Seen::Sev));
         assert_eq!(seen(0xB662, 0), Some(Seen::Unmask));
+        // CPSIE f and CPSIE if: FAULTMASK cleared (the H743's careful
+        // flash read), a pending interrupt taken at once.
+        assert_eq!(seen(0xB661, 0), Some(Seen::Unmask));
+        assert_eq!(seen(0xB663, 0), Some(Seen::Unmask));
+        assert_eq!(seen(0xB671, 0), None, "CPSID f masks");
         assert_eq!(seen(0xF380, 0x8810), Some(Seen::Unmask));
         // MSR to APSR (0x00) and to CONTROL (0x14) unmask nothing; CPSID.
         assert_eq!(seen(0xF380, 0x8800), None);
