@@ -69,19 +69,26 @@ impl Device {
     }
 }
 
+/// A bridge forwarding a 127.0.0.1 port to the device's [`PORT`], and a
+/// host client connected to it (its reads wait a millisecond).
+fn forwarded() -> (Bridge, TcpStream) {
+    let mut bridge = Bridge::new(DEVICE);
+    let listen = bridge
+        .forward_tcp("127.0.0.1:0".parse().unwrap(), PORT)
+        .expect("forward");
+    let host = TcpStream::connect(listen).expect("connect");
+    host.set_read_timeout(Some(WallDuration::from_millis(1)))
+        .expect("timeout");
+    (bridge, host)
+}
+
 /// A host client sends a request that the device takes (its stack
 /// acknowledges it), and the device resets before it answers. The
 /// bridge's connection then has nothing in flight: only its keep-alive
 /// reaches the new stack, whose reset closes the host's side too.
 #[test]
 fn a_connection_whose_device_reset_under_it_is_closed_on_both_sides() {
-    let mut bridge = Bridge::new(DEVICE);
-    let listen = bridge
-        .forward_tcp("127.0.0.1:0".parse().unwrap(), PORT)
-        .expect("forward");
-    let mut host = TcpStream::connect(listen).expect("connect");
-    host.set_read_timeout(Some(WallDuration::from_millis(1)))
-        .expect("timeout");
+    let (mut bridge, mut host) = forwarded();
     host.write_all(b"GET /status.json HTTP/1.1\r\n\r\n")
         .expect("write");
 
@@ -135,13 +142,7 @@ fn a_connection_whose_device_reset_under_it_is_closed_on_both_sides() {
 /// bootloader, say) is aborted after [`HOST_TIMEOUT`], not kept for good.
 #[test]
 fn a_connection_to_a_silent_device_is_aborted_after_the_timeout() {
-    let mut bridge = Bridge::new(DEVICE);
-    let listen = bridge
-        .forward_tcp("127.0.0.1:0".parse().unwrap(), PORT)
-        .expect("forward");
-    let mut host = TcpStream::connect(listen).expect("connect");
-    host.set_read_timeout(Some(WallDuration::from_millis(1)))
-        .expect("timeout");
+    let (mut bridge, mut host) = forwarded();
     let mut link = Link::nucleo();
     let mut now_us = 0u64;
     let step = 10_000;
