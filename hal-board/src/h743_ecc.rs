@@ -30,9 +30,14 @@
 
 use embassy_stm32::pac::FLASH;
 
-/// A read met a word whose ECC reports a double error (a torn word).
+/// Why a careful read failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct DoubleEcc;
+pub enum ReadError {
+    /// The range runs past the flash.
+    OutOfRange,
+    /// A word whose ECC reports a double error (a torn word).
+    DoubleEcc,
+}
 
 /// SCB.CCR.BFHFNMIGN (B3.2.8).
 const BFHFNMIGN: u32 = 1 << 8;
@@ -42,21 +47,25 @@ const BFHFNMIGN: u32 = 1 << 8;
 const WINDOW: usize = 256;
 
 /// Copies `bytes.len()` bytes of the flash from `offset` (from the
-/// flash's start) into `bytes`, ignoring the bus fault of a torn word; an
-/// `Err` when one was met (the bytes are then UNKNOWN). The range is the
-/// caller's to check (embassy-stm32's driver does).
-pub fn read(offset: u32, bytes: &mut [u8]) -> Result<(), DoubleEcc> {
+/// flash's start) into `bytes`, ignoring the bus fault of a torn word;
+/// [`ReadError::DoubleEcc`] when one was met (the bytes are then
+/// UNKNOWN), [`ReadError::OutOfRange`] for a range past the flash.
+pub fn read(offset: u32, bytes: &mut [u8]) -> Result<(), ReadError> {
+    let end = (offset as usize).checked_add(bytes.len());
+    if end.is_none_or(|e| e > embassy_stm32::flash::FLASH_SIZE) {
+        return Err(ReadError::OutOfRange);
+    }
     let mut at = (embassy_stm32::flash::FLASH_BASE as u32).wrapping_add(offset) as usize;
     clear();
     for window in bytes.chunks_mut(WINDOW) {
-        // SAFETY: `at..at + window.len()` is flash the caller checked.
+        // SAFETY: `at..at + window.len()` is flash (checked above).
         unsafe { copy_ignoring_bus_faults(at, window) };
         at += window.len();
     }
     let torn = (0..2).any(|b| FLASH.bank(b).sr().read().dbeccerr());
     if torn {
         clear();
-        return Err(DoubleEcc);
+        return Err(ReadError::DoubleEcc);
     }
     Ok(())
 }

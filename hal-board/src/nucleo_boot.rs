@@ -66,13 +66,10 @@ impl ReadNorFlash for BootFlash {
         #[cfg(feature = "nucleo-f767zi")]
         return self.0.blocking_read(offset, bytes);
         #[cfg(feature = "nucleo-h743zi")]
-        {
-            let end = (offset as usize).checked_add(bytes.len());
-            if end.is_none_or(|e| e > self.0.capacity()) {
-                return Err(embassy_stm32::flash::Error::Size);
-            }
-            crate::h743_ecc::read(offset, bytes).map_err(|_| embassy_stm32::flash::Error::Prog)
-        }
+        crate::h743_ecc::read(offset, bytes).map_err(|e| match e {
+            crate::h743_ecc::ReadError::OutOfRange => embassy_stm32::flash::Error::Size,
+            crate::h743_ecc::ReadError::DoubleEcc => embassy_stm32::flash::Error::Prog,
+        })
     }
 
     fn capacity(&self) -> usize {
