@@ -57,6 +57,19 @@ pub(crate) fn bus_write(uc: &mut Unicorn<State>, addr: u64, size: usize, value: 
 /// time (the core waits for a flash operation in the bank it fetches
 /// from).
 fn settle(uc: &mut Unicorn<State>) {
+    let s = uc.get_data();
+    let f = &s.shared.flash;
+    if s.shared.program.is_empty()
+        && s.shared.stall == 0
+        && !f.cut
+        && f.census
+            .as_ref()
+            .is_none_or(|c| c.last().is_none_or(|op| op.pc != 0))
+    {
+        // Nothing to settle: the common case of a register access (a
+        // poll loop's), which this keeps cheap.
+        return;
+    }
     let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0) as u32;
     let s = uc.get_data_mut();
     if let Some(census) = &mut s.shared.flash.census {
@@ -109,7 +122,7 @@ pub(crate) fn flash_store(uc: &mut Unicorn<State>, addr: u64, size: usize, value
     let _ = uc.mem_read(addr, &mut old);
     let s = uc.get_data_mut();
     let mut bus = std::mem::take(&mut s.bus);
-    let mut shared = std::mem::take(&mut s.shared);
+    let mut shared = s.shared.lend();
     let now = s.now;
     let result = {
         let mut cx = shared.cx(now, crate::bus::no_dma());
@@ -117,7 +130,7 @@ pub(crate) fn flash_store(uc: &mut Unicorn<State>, addr: u64, size: usize, value
     };
     let s = uc.get_data_mut();
     s.bus = bus;
-    s.shared = shared;
+    s.shared.give_back(shared);
     match result {
         Ok(()) => {
             remember(s, pc, addr, size as u32, Some(value as u32), 0);
@@ -141,7 +154,7 @@ pub(crate) fn flash_store(uc: &mut Unicorn<State>, addr: u64, size: usize, value
 pub(crate) fn advance_models(uc: &mut Unicorn<State>) -> Result<(), String> {
     let s = uc.get_data_mut();
     let mut bus = std::mem::take(&mut s.bus);
-    let mut shared = std::mem::take(&mut s.shared);
+    let mut shared = s.shared.lend();
     let now = s.now;
     let result = {
         let mut dma = UcDma { uc: &mut *uc };
@@ -154,7 +167,7 @@ pub(crate) fn advance_models(uc: &mut Unicorn<State>) -> Result<(), String> {
     };
     let s = uc.get_data_mut();
     s.bus = bus;
-    s.shared = shared;
+    s.shared.give_back(shared);
     settle(uc);
     let s = uc.get_data_mut();
     for irq in s.shared.raised.drain(..) {
@@ -190,7 +203,7 @@ fn access(
         };
     }
     let mut bus = std::mem::take(&mut s.bus);
-    let mut shared = std::mem::take(&mut s.shared);
+    let mut shared = s.shared.lend();
     let now = s.now;
     let result = {
         let mut dma = UcDma { uc: &mut *uc };
@@ -199,7 +212,7 @@ fn access(
     };
     let s = uc.get_data_mut();
     s.bus = bus;
-    s.shared = shared;
+    s.shared.give_back(shared);
     settle(uc);
     result
 }

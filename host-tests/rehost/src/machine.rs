@@ -67,15 +67,15 @@ impl Machine {
             image: image.clone(),
             bus,
             scs: Scs::new(),
-            shared: Shared {
+            shared: crate::state::Lent::new(Shared {
                 clocks,
                 link: crate::link::Link::nucleo(),
                 ..Shared::default()
-            },
+            }),
             now: 0,
             deadline: u64::MAX,
             stop: None,
-            block_sizes: std::collections::HashMap::new(),
+            block_sizes: rustc_hash::FxHashMap::default(),
             reached: false,
             active: Active::default(),
             exceptions_taken: 0,

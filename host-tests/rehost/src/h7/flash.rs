@@ -145,6 +145,9 @@ impl Flash {
     /// The core's reads of torn words since the last access
     /// ([`crate::torn_word`]): each bank's DBECCERR and failing address.
     fn ecc(&mut self, cx: &mut Cx) {
+        if cx.flash.ecc_errors.is_empty() {
+            return;
+        }
         for word in std::mem::take(&mut cx.flash.ecc_errors) {
             let Some(offset) = word.checked_sub(BANK1).filter(|o| *o < 2 * BANK_SIZE) else {
                 continue;
