@@ -7,6 +7,7 @@ use crate::state::{State, PPB};
 use unicorn_engine::{RegisterARM, Unicorn};
 
 fn remember(s: &mut State, pc: u64, addr: u64, size: u32, write: Option<u32>, value: u32) {
+    s.accesses += 1;
     if s.recent.len() == 32 {
         s.recent.pop_front();
     }
@@ -23,6 +24,7 @@ pub(crate) fn bus_read(uc: &mut Unicorn<State>, addr: u64, size: usize) -> u64 {
             if !s.shared.raised.is_empty() {
                 s.deadline = s.now;
             }
+            crate::fast_forward::after_read(uc, pc, addr, size, v);
             u64::from(v)
         }
         Err(rule) => {

@@ -186,6 +186,15 @@ pub trait Peripheral {
         None
     }
 
+    /// Until when (exclusive) the register at `offset`, read at `now`,
+    /// keeps the value it has, unless the core accesses this block again:
+    /// a status bit that clears when an operation under way ends. `None`
+    /// (the default): no promise. [`crate::fast_forward`] moves a poll
+    /// loop on to that time.
+    fn holds_until(&self, _offset: u32, _now: u64) -> Option<u64> {
+        None
+    }
+
     /// A store of `size` bytes of `value` by the core into the flash
     /// memory at `addr` (whose bytes are now `old`): the flash
     /// controller's, which programs it when its rules allow (pushing the

@@ -11,6 +11,7 @@ pub mod clocks;
 pub mod corpus;
 pub mod exceptions;
 pub mod f7;
+pub mod fast_forward;
 pub mod fault;
 pub mod flash_array;
 pub mod flash_image;

@@ -73,6 +73,8 @@ impl Machine {
                 ..Shared::default()
             }),
             now: 0,
+            accesses: 0,
+            poll: crate::fast_forward::Watch::default(),
             deadline: u64::MAX,
             stop: None,
             block_sizes: rustc_hash::FxHashMap::default(),
@@ -178,6 +180,7 @@ impl Machine {
             };
             let s = uc.get_data_mut();
             s.now += count;
+            s.poll.entered(addr, size);
             if s.now >= s.deadline {
                 let _ = uc.emu_stop();
             }

@@ -8,133 +8,11 @@
 //! usage or load error.
 
 use clap::Parser;
+use main_args::Args;
 use rri_rehost::{chip, image::Image, machine::Machine};
 use std::path::PathBuf;
 
-#[derive(Parser)]
-#[command(about = "Boot a NUCLEO firmware image on a strict model of its chip")]
-struct Args {
-    /// The board: f767 (NUCLEO-F767ZI) or h743 (NUCLEO-H743ZI2).
-    #[arg(long)]
-    board: String,
-    /// The image (default: the one `cargo build-f767` / `build-h743` writes).
-    #[arg(long)]
-    elf: Option<PathBuf>,
-    /// The bootloader the chip starts, which starts the image (default:
-    /// the one `cargo build-f767-boot` / `build-h743-boot` writes). Every
-    /// NUCLEO image is linked into the active partition (issue 43), so
-    /// both are programmed, as a board holds them.
-    #[arg(long)]
-    boot: Option<PathBuf>,
-    /// Read the device's log as this image writes it (its RTT block, its
-    /// defmt table): an update's ELF, to read the log after it is
-    /// swapped in (default: `--elf`'s).
-    #[arg(long)]
-    log_elf: Option<PathBuf>,
-    /// Program the bootloader alone, as on a board whose probe flashed
-    /// only that: the bootloader must say it found no image and stop
-    /// (with `--expect-stop`, CI's check of its failure path).
-    #[arg(long)]
-    no_image: bool,
-    /// Stop after this many core cycles of virtual time (default: without
-    /// `--device`, 2,000,000,000; with it, until the robot's run is over
-    /// or Ctrl-C).
-    #[arg(long)]
-    cycles: Option<u64>,
-    /// End the run when the core reaches this function (its mangled or
-    /// plain symbol name, e.g. `main`).
-    #[arg(long)]
-    until: Option<String>,
-    /// The run must be stopped by the model with a message containing
-    /// this text (a broken variant's check).
-    #[arg(long)]
-    expect_stop: Option<String>,
-    /// The device's address and channel port, as its GSI folder's
-    /// Description.xml says (`cargo rehost` passes it): with it the
-    /// robot's channel is forwarded from `--listen`.
-    #[arg(long)]
-    device: Option<std::net::SocketAddrV4>,
-    /// The channel is TCP (the image was built for a TCP device).
-    #[arg(long)]
-    tcp: bool,
-    /// Where the robot's channel is forwarded from.
-    #[arg(long, default_value = "127.0.0.1:0")]
-    listen: std::net::SocketAddr,
-    /// Where the device's status page (TCP port 80) is forwarded from.
-    #[arg(long, default_value = "127.0.0.1:0")]
-    http: std::net::SocketAddr,
-    /// Deterministic: no wall clock at all (virtual time runs as fast as
-    /// the host can emulate). The default with `--device` is paced to the
-    /// wall clock, so that outside clients see the device's own timing.
-    #[arg(long)]
-    deterministic: bool,
-    /// Drive the device with this many robot messages in virtual time
-    /// (deterministic: implies `--deterministic`), from the GSI folder
-    /// `--gsi`; the run ends when the last cycle is over. After a power
-    /// cut (`--power-cut`) the robot starts again at the next link up, as
-    /// a controller reconnects: the run is judged by that robot.
-    #[arg(long)]
-    robot: Option<u64>,
-    /// The GSI folder the image was built from (for `--robot`).
-    #[arg(long)]
-    gsi: Option<PathBuf>,
-    /// What each line of the device's log starts with.
-    #[arg(long, default_value = "device: ")]
-    log_prefix: String,
-    /// System resets (SYSRESETREQ, the watchdog) the chip may go through,
-    /// each restarting the core and the peripherals with the RAM kept;
-    /// the next one stops the run. 0 (the default): the first reset stops
-    /// it, naming its cause.
-    #[arg(long, default_value_t = 0)]
-    resets: u32,
-    /// The bench's corpus (a file `cargo rehost -- --corpus` writes) sent
-    /// lock-step to a bench image in virtual time, each message
-    /// `--repeat` times; prints the device's own cycles per message.
-    #[arg(long)]
-    corpus: Option<PathBuf>,
-    /// How many times `--corpus` sends each message.
-    #[arg(long, default_value_t = 20)]
-    repeat: u32,
-    /// The PHY gives no 50 MHz reference clock (a dead or unstrapped
-    /// LAN8742A): the MAC's DMA never leaves its software reset, so the
-    /// image must not wait for it unguarded (issue 42 #14).
-    #[arg(long)]
-    no_ref_clock: bool,
-    /// Start from this flash content (the whole flash, every bank, as
-    /// `--flash-out` wrote it) instead of an erased chip programmed with
-    /// the images: a board's state after an earlier run, such as an
-    /// update marked and not yet swapped in.
-    #[arg(long)]
-    flash_in: Option<PathBuf>,
-    /// Write the whole flash to this file when the run ends (a reset that
-    /// stops it included), as a probe would read it back.
-    #[arg(long)]
-    flash_out: Option<PathBuf>,
-    /// Cut the power as the Nth flash operation (a program or an erase,
-    /// counted from the start of this run, 1-based) starts: nothing of it
-    /// reaches the array; the chip powers up again with its SRAM lost and
-    /// its flash kept, and the run goes on (issue 43's power cuts).
-    #[arg(long)]
-    power_cut: Option<u64>,
-    /// The power cut tears the operation it falls on (the H743 only):
-    /// its flash words are left with a bad ECC until their sector's
-    /// erase (`torn_word`: a read of one is a double ECC error).
-    #[arg(long, requires = "power_cut")]
-    tear: bool,
-    /// Write every flash operation of the run to this file, one a line:
-    /// its number, `erase` or `program`, its address, its length and the
-    /// PC that started it (where to aim `--power-cut`).
-    #[arg(long)]
-    flash_census: Option<PathBuf>,
-    /// The F767's flash in dual-bank mode (option byte nDBANK = 0, as the
-    /// README has the user set it once with the probe) instead of the
-    /// factory's single bank: the mode its updates need.
-    #[arg(long)]
-    dual_bank: bool,
-    /// Print the device's log (defmt over RTT) as `device:` lines.
-    #[arg(long, default_value_t = true)]
-    log: bool,
-}
+mod main_args;
 
 fn main() {
     let mut args = Args::parse();
@@ -188,6 +66,7 @@ fn main() {
     });
     let (bus, clocks) = rebuild();
     let mut m = Machine::new(chip, image, bus, clocks).unwrap_or_else(|e| fail(2, &e));
+    m.uc.get_data_mut().poll.enabled = !args.no_fast_forward;
     m.rebuild = Some(rebuild);
     {
         let flash = &mut m.uc.get_data_mut().shared.flash;
@@ -434,9 +313,11 @@ fn main() {
             }
         }
         eprintln!(
-            "rehost: {} cycles ({} asleep), {} slices, {} exceptions taken, {:.2?}; {}",
+            "rehost: {} cycles ({} asleep, {} in {} poll loops fast-forwarded), {} slices, {} exceptions taken, {:.2?}; {}",
             s.now,
             s.slept,
+            s.poll.skipped,
+            s.poll.skips,
             s.slices,
             s.exceptions_taken,
             elapsed,

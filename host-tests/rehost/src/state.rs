@@ -33,6 +33,10 @@ pub struct State {
     pub shared: Lent<Shared>,
     /// Retired instructions (= core cycles).
     pub now: u64,
+    /// Accesses to the models (reads, writes, flash stores) so far.
+    pub accesses: u64,
+    /// Poll loops watched and fast-forwarded ([`crate::fast_forward`]).
+    pub poll: crate::fast_forward::Watch,
     /// The run ends when `now` reaches this.
     pub deadline: u64,
     pub stop: Option<Stop>,

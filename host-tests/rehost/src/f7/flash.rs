@@ -320,6 +320,15 @@ impl Peripheral for Flash {
         self.busy.map(|b| b.until)
     }
 
+    /// FLASH_SR while the flash is busy: BSY until the operation ends.
+    fn holds_until(&self, offset: u32, _now: u64) -> Option<u64> {
+        if offset & !3 == SR {
+            self.busy.map(|b| b.until)
+        } else {
+            None
+        }
+    }
+
     fn store(
         &mut self,
         addr: u32,

@@ -388,6 +388,19 @@ impl Peripheral for Flash {
         Ok(())
     }
 
+    /// FLASH_SR1/2 while its bank is busy: BSY and QW until the operation
+    /// ends (DBECCERR may be set sooner only by a read of the flash, which
+    /// [`crate::fast_forward`] watches for).
+    fn holds_until(&self, offset: u32, _now: u64) -> Option<u64> {
+        let offset = alias(offset);
+        let b = usize::from(offset >= 0x100);
+        if offset & !0x103 == SR {
+            self.banks[b].busy.map(|busy| busy.until)
+        } else {
+            None
+        }
+    }
+
     fn next_event(&self, _now: u64) -> Option<u64> {
         self.banks
             .iter()
