@@ -45,6 +45,7 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 mod census;
+mod exact;
 
 pub use census::{parse_census, points, runs, torn_point, Op, Phase, Run};
 
@@ -427,6 +428,10 @@ pub fn run_all(setup: &Setup, board: Board, all: bool, kind: CutKind) -> Result<
     let swap = parse_census(&text)?;
     let swap_runs = runs(&swap, &partitions);
     summary(&swap, &swap_runs);
+    println!(
+        "== the engine's fast-forward: {}",
+        exact::check(board, &images, &dir)?
+    );
     let (mut cuts, mut failed) = (0, 0);
     let mut judge = |verdict: Verdict| {
         cuts += 1;

@@ -183,13 +183,8 @@ pub fn after_read(uc: &mut Unicorn<State>, pc: u64, addr: u64, size: usize, valu
     });
     match (s.poll.anchor, holds) {
         (Some((then, _)), Some(until)) if same && s.shared.raised.is_empty() => {
-            // Whole iterations, each read in them before the value
-            // changes, and ending before the slice's end: a block that
-            // ends at the deadline itself would stop the core after it,
-            // which a skip inside the block cannot do.
             let period = now - then;
-            let target = until.min(s.deadline).saturating_sub(1);
-            let n = target.saturating_sub(now) / period;
+            let n = iterations(now, period, until, s.deadline);
             if n > 0 {
                 s.now += n * period;
                 s.poll.skipped += n * period;
@@ -204,6 +199,16 @@ pub fn after_read(uc: &mut Unicorn<State>, pc: u64, addr: u64, size: usize, valu
             s.poll.blocks.push(current);
         }
     }
+}
+
+/// How many iterations of `period` cycles to skip from a read at `now`:
+/// whole ones, each read in them before the value changes at `until`,
+/// and ending before the slice's `deadline` (a block that ends at the
+/// deadline itself stops the core after it, which a skip inside the block
+/// cannot do).
+fn iterations(now: u64, period: u64, until: u64, deadline: u64) -> u64 {
+    let target = until.min(deadline).saturating_sub(1);
+    target.saturating_sub(now) / period.max(1)
 }
 
 /// Whether `code` (whole Thumb instructions) writes nothing but core

@@ -69,6 +69,23 @@ fn stores_system_and_coprocessor_instructions_are_not() {
     }
 }
 
+#[test]
+fn whole_iterations_end_before_the_value_changes_and_before_the_deadline() {
+    // Reads at 100 and every 3 cycles; the value changes at 110: the
+    // reads at 103, 106 and 109 are skipped, the one at 112 runs.
+    assert_eq!(iterations(100, 3, 110, u64::MAX), 3);
+    assert_eq!(
+        iterations(100, 3, 109, u64::MAX),
+        2,
+        "109 reads the new value"
+    );
+    // A deadline at 109 ends the slice after the block of the read at
+    // 109: that read must run.
+    assert_eq!(iterations(100, 3, u64::MAX, 109), 2);
+    assert_eq!(iterations(100, 3, 103, u64::MAX), 0);
+    assert_eq!(iterations(100, 3, 100, 50), 0, "both behind already");
+}
+
 const KEY1: u64 = 0x4567_0123;
 const KEY2: u64 = 0xCDEF_89AB;
 /// Bank 2's start, where the program writes its flash word.
