@@ -139,6 +139,25 @@ impl CutKind {
     }
 }
 
+/// The engine starting the board from the marked flash: A's image (its
+/// log is read with A's table throughout: B is A with a newer version
+/// string, so their RTT blocks and defmt tables are the same), the
+/// bootloader.
+fn from_marked_flash(board: Board, images: &Images, dir: &Path) -> Result<Command, String> {
+    let engine = crate::rehost::build_engine()?;
+    let boot = crate::rehost::boot_image(self::engine(board)?)?;
+    let mut cmd = Command::new(engine);
+    cmd.current_dir(crate::workspace())
+        .args(["--board", self::engine(board)?, "--elf"])
+        .arg(&images.a)
+        .args(board.engine_options())
+        .arg("--boot")
+        .arg(&boot)
+        .arg("--flash-in")
+        .arg(dir.join("marked.flash"));
+    Ok(cmd)
+}
+
 /// A deterministic run from the marked flash: the bootloader's swap,
 /// then B and the engine's robot ([`robot_messages`] in virtual time,
 /// started again after a cut). With `cut`, the power fails at that
@@ -151,20 +170,8 @@ fn swap_run(
     cut: Option<(u64, CutKind)>,
     census: Option<&Path>,
 ) -> Result<(i32, String), String> {
-    let engine = crate::rehost::build_engine()?;
-    let boot = crate::rehost::boot_image(self::engine(board)?)?;
-    let mut cmd = Command::new(engine);
-    // The log is read with A's table throughout: B is A with a newer
-    // version string, so their RTT blocks and defmt tables are the same.
-    cmd.current_dir(crate::workspace())
-        .args(["--board", self::engine(board)?, "--elf"])
-        .arg(&images.a)
-        .args(board.engine_options())
-        .arg("--boot")
-        .arg(&boot)
-        .arg("--flash-in")
-        .arg(dir.join("marked.flash"))
-        .arg("--device")
+    let mut cmd = from_marked_flash(board, images, dir)?;
+    cmd.arg("--device")
         .arg(format!(
             "{}:{}",
             setup.device.network.address, setup.device.channel.port

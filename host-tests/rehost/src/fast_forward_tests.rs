@@ -104,23 +104,15 @@ fn program(body: &[u16]) -> Vec<u16> {
 
 /// Runs `code` for `cycles` on the H743, fast-forwarding or not: the
 /// registers and virtual time at the end, and the cycles skipped.
-fn run(code: &[u16], fast: bool, cycles: u64) -> ([u64; 10], u64, u64) {
+fn run(code: &[u16], fast: bool, cycles: u64) -> ([u64; 17], u64, u64) {
     let mut m = machine(code, fast);
     let stop = m.run(cycles);
     assert!(stop.is_none(), "the program runs without a stop: {stop:?}");
-    let mut regs = [0; 10];
-    for (v, r) in regs.iter_mut().zip([
-        RegisterARM::R0,
-        RegisterARM::R1,
-        RegisterARM::R2,
-        RegisterARM::R3,
-        RegisterARM::R4,
-        RegisterARM::R5,
-        RegisterARM::R6,
-        RegisterARM::R7,
-        RegisterARM::PC,
-        RegisterARM::XPSR,
-    ]) {
+    let mut regs = [0; 17];
+    for (v, r) in regs
+        .iter_mut()
+        .zip(REGS.into_iter().chain([RegisterARM::PC]))
+    {
         *v = m.uc.reg_read(r).unwrap();
     }
     let s = m.uc.get_data();

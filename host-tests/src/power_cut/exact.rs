@@ -7,7 +7,6 @@
 
 use crate::update_swap::{Board, Images};
 use std::path::Path;
-use std::process::Command;
 use std::time::Instant;
 
 /// Virtual time compared: on the H743 about a fifth of the swap, about
@@ -22,24 +21,13 @@ fn run(
     dir: &Path,
     every_iteration: bool,
 ) -> Result<(String, String, f64), String> {
-    let engine = crate::rehost::build_engine()?;
-    let name = super::engine(board)?;
-    let boot = crate::rehost::boot_image(name)?;
     let census = dir.join(if every_iteration {
         "exact-slow.census"
     } else {
         "exact-fast.census"
     });
-    let mut cmd = Command::new(engine);
-    cmd.current_dir(crate::workspace())
-        .args(["--board", name, "--elf"])
-        .arg(&images.a)
-        .args(board.engine_options())
-        .arg("--boot")
-        .arg(&boot)
-        .arg("--flash-in")
-        .arg(dir.join("marked.flash"))
-        .args(["--cycles", &CYCLES.to_string()])
+    let mut cmd = super::from_marked_flash(board, images, dir)?;
+    cmd.args(["--cycles", &CYCLES.to_string()])
         .arg("--flash-census")
         .arg(&census);
     if every_iteration {
