@@ -159,6 +159,18 @@ pub fn after_read(uc: &mut Unicorn<State>, pc: u64, addr: u64, size: usize, valu
         return;
     }
     let now = s.now;
+    // Not past the block's own next event either: a read brings the
+    // whole block up to date (the other bank's operation ending), which
+    // the reads skipped would have done at their times.
+    let holds = s.bus.find(addr as u32).and_then(|(b, offset)| {
+        let holds = b.model.holds_until(offset, now)?;
+        Some(b.model.next_event(now).map_or(holds, |e| e.min(holds)))
+    });
+    if holds.is_none() {
+        // No promise from the model: nothing to skip to, and no
+        // registers read.
+        return;
+    }
     let mut regs = [0u64; 16];
     for (r, id) in regs.iter_mut().zip(REGS) {
         *r = uc.reg_read(id).unwrap_or(u64::MAX);
@@ -174,13 +186,6 @@ pub fn after_read(uc: &mut Unicorn<State>, pc: u64, addr: u64, size: usize, valu
                 .is_ok_and(|code| pure(&code))
         });
     let s = uc.get_data_mut();
-    // Not past the block's own next event either: a read brings the
-    // whole block up to date (the other bank's operation ending), which
-    // the reads skipped would have done at their times.
-    let holds = s.bus.find(addr as u32).and_then(|(b, offset)| {
-        let holds = b.model.holds_until(offset, now)?;
-        Some(b.model.next_event(now).map_or(holds, |e| e.min(holds)))
-    });
     match (s.poll.anchor, holds) {
         (Some((then, _)), Some(until)) if same && s.shared.raised.is_empty() => {
             let period = now - then;
