@@ -464,26 +464,6 @@ impl Machine {
         Ok(())
     }
 
-    /// Ends the run when the core reaches `addr` (a function's entry).
-    pub fn stop_at(&mut self, addr: u64) -> Result<(), String> {
-        let addr = addr & !1;
-        self.uc
-            .add_code_hook(addr, addr, |uc, _, _| {
-                let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
-                let s = uc.get_data_mut();
-                s.reached = true;
-                s.refuse("reached".into(), None, pc);
-                let _ = uc.emu_stop();
-            })
-            .map(|_| ())
-            .map_err(|e| format!("unicorn: code hook: {e:?}"))
-    }
-
-    /// Whether the run ended at the address given to [`Machine::stop_at`].
-    pub fn reached(&self) -> bool {
-        self.uc.get_data().reached
-    }
-
     /// The PC and its function.
     pub fn where_now(&self) -> String {
         let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
@@ -495,6 +475,9 @@ impl Machine {
         self.uc.get_data().now
     }
 }
+
+/// `--until`: a run that ends at a function's entry.
+mod until;
 
 /// A machine for the engine's own unit tests.
 #[cfg(test)]
