@@ -28,77 +28,9 @@
 //! iteration: the unit tests below compare the two on a tiny program, and
 //! the README gives the figures of a whole swap run both ways.
 
+use crate::poll_watch::{Run, MAX_BLOCKS};
 use crate::state::State;
 use unicorn_engine::{RegisterARM, Unicorn};
-
-/// The most blocks one iteration may enter (a longer loop is not a poll).
-const MAX_BLOCKS: usize = 8;
-
-/// A run of reads of one register, each the next access to any model,
-/// all returning the same value, in one slice with no exception taken
-/// and no torn word read: a poll loop's, unrolled or not.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Run {
-    pc: u64,
-    addr: u64,
-    size: usize,
-    value: u32,
-    slices: u64,
-    exceptions: u64,
-    ecc_reads: u64,
-    /// The accesses counted at the run's last read.
-    accesses: u64,
-}
-
-/// What the watch keeps between reads.
-#[derive(Debug)]
-pub struct Watch {
-    /// Off with `--no-fast-forward`.
-    pub enabled: bool,
-    /// The translated block the core is in: its address and size.
-    pub current: (u64, u32),
-    /// The run of reads under way.
-    run: Option<Run>,
-    /// The last read of the run at its first read's instruction: its time
-    /// and the core's registers then. Blocks are recorded from it.
-    anchor: Option<(u64, [u64; 16])>,
-    /// The blocks entered since the anchor, the anchor's own first.
-    blocks: Vec<(u64, u32)>,
-    /// Cycles moved on, and how many times.
-    pub skipped: u64,
-    pub skips: u64,
-}
-
-impl Default for Watch {
-    fn default() -> Watch {
-        Watch {
-            enabled: true,
-            current: (0, 0),
-            run: None,
-            anchor: None,
-            blocks: Vec::with_capacity(MAX_BLOCKS + 1),
-            skipped: 0,
-            skips: 0,
-        }
-    }
-}
-
-impl Watch {
-    /// The block hook's part: the block entered (cheap: the hook runs at
-    /// every block).
-    pub fn entered(&mut self, addr: u64, size: u32) {
-        self.current = (addr, size);
-        if self.anchor.is_some() && self.blocks.len() <= MAX_BLOCKS {
-            self.blocks.push((addr, size));
-        }
-    }
-
-    fn drop_run(&mut self) {
-        self.run = None;
-        self.anchor = None;
-        self.blocks.clear();
-    }
-}
 
 const REGS: [RegisterARM; 16] = [
     RegisterARM::R0,

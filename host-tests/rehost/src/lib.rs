@@ -26,6 +26,7 @@ pub mod machine;
 pub mod memories;
 pub mod mpu;
 pub mod mpu_enforce;
+pub mod poll_watch;
 pub mod reset;
 pub mod rng;
 pub mod robot;

@@ -74,7 +74,7 @@ impl Machine {
             }),
             now: 0,
             accesses: 0,
-            poll: crate::fast_forward::Watch::default(),
+            poll: crate::poll_watch::Watch::default(),
             deadline: u64::MAX,
             stop: None,
             block_sizes: rustc_hash::FxHashMap::default(),

@@ -36,7 +36,7 @@ pub struct State {
     /// Accesses to the models (reads, writes, flash stores) so far.
     pub accesses: u64,
     /// Poll loops watched and fast-forwarded ([`crate::fast_forward`]).
-    pub poll: crate::fast_forward::Watch,
+    pub poll: crate::poll_watch::Watch,
     /// The run ends when `now` reaches this.
     pub deadline: u64,
     pub stop: Option<Stop>,
