@@ -94,15 +94,15 @@ pub fn after_read(uc: &mut Unicorn<State>, pc: u64, addr: u64, size: usize, valu
     // Not past the block's own next event either: a read brings the
     // whole block up to date (the other bank's operation ending), which
     // the reads skipped would have done at their times.
-    let holds = s.bus.find(addr as u32).and_then(|(b, offset)| {
+    let until = s.bus.find(addr as u32).and_then(|(b, offset)| {
         let holds = b.model.holds_until(offset, now)?;
         Some(b.model.next_event(now).map_or(holds, |e| e.min(holds)))
     });
-    if holds.is_none() {
+    let Some(until) = until else {
         // No promise from the model: nothing to skip to, and no
         // registers read.
         return;
-    }
+    };
     let mut regs = [0u64; 16];
     for (r, id) in regs.iter_mut().zip(REGS) {
         *r = uc.reg_read(id).unwrap_or(u64::MAX);
@@ -118,8 +118,8 @@ pub fn after_read(uc: &mut Unicorn<State>, pc: u64, addr: u64, size: usize, valu
                 .is_ok_and(|code| pure(&code))
         });
     let s = uc.get_data_mut();
-    match (s.poll.anchor, holds) {
-        (Some((then, _)), Some(until)) if same && s.shared.raised.is_empty() => {
+    match s.poll.anchor {
+        Some((then, _)) if same && s.shared.raised.is_empty() => {
             let period = now - then;
             let n = iterations(now, period, until, s.deadline);
             if n > 0 {
@@ -129,12 +129,7 @@ pub fn after_read(uc: &mut Unicorn<State>, pc: u64, addr: u64, size: usize, valu
             }
             s.poll.drop_run();
         }
-        _ => {
-            s.poll.anchor = Some((now, regs));
-            s.poll.blocks.clear();
-            let current = s.poll.current;
-            s.poll.blocks.push(current);
-        }
+        _ => s.poll.anchor_at(now, regs),
     }
 }
 

@@ -66,6 +66,14 @@ impl Watch {
         }
     }
 
+    /// The run's first instruction read again at `now` with the core's
+    /// registers `regs`: blocks are recorded from here.
+    pub(crate) fn anchor_at(&mut self, now: u64, regs: [u64; 16]) {
+        self.anchor = Some((now, regs));
+        self.blocks.clear();
+        self.blocks.push(self.current);
+    }
+
     pub(crate) fn drop_run(&mut self) {
         self.run = None;
         self.anchor = None;
