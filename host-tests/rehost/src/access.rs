@@ -87,15 +87,28 @@ fn settle(uc: &mut Unicorn<State>) {
         // same access (an erase) does. The machine powers the chip off
         // before the next block. With `--tear` it fails inside the
         // operation: its words are torn, and a program's bytes reach the
-        // array half-made ([`crate::torn_word`]).
-        let kept = s.shared.flash.kept.take().unwrap_or(0);
-        let own = s.shared.flash.tear && crate::torn_word::tear(&mut s.shared.flash);
-        writes.truncate(kept + usize::from(own));
+        // array half-made ([`crate::torn_word`] on a flash with ECC,
+        // [`crate::torn_bits`] on one without).
+        // Torn once, at the first settle after the cut (`kept` is taken
+        // there); a later access before the power goes adds nothing.
+        let first = s.shared.flash.kept.take();
+        let kept = first.unwrap_or(0);
+        let tear = s.shared.flash.tear && first.is_some();
+        let ecc = s.chip.flash_ecc;
+        let own = tear && ecc && crate::torn_word::tear(&mut s.shared.flash);
+        let mixed = tear && !ecc;
         s.deadline = s.now;
+        if mixed {
+            let own = writes.get(kept).map(|(_, bytes)| bytes.clone());
+            writes.truncate(kept);
+            writes.extend(crate::torn_bits::tear(uc, own));
+        } else {
+            writes.truncate(kept + usize::from(own));
+        }
     } else {
         s.now += stall;
     }
-    let alias = s.chip.flash_alias;
+    let alias = uc.get_data().chip.flash_alias;
     for (addr, bytes) in writes {
         let _ = uc.mem_write(u64::from(addr), &bytes);
         let len = bytes.len() as u64;
@@ -349,3 +362,7 @@ fn cacheable(s: &State, addr: u32) -> Option<String> {
         }
     })
 }
+
+#[cfg(test)]
+#[path = "access_tests.rs"]
+mod tests;

@@ -58,8 +58,15 @@ pub struct FlashOps {
     /// With `--flash-census`: each operation.
     pub census: Option<Vec<CensusOp>>,
     /// `--tear`: the cut tears the operation it falls on instead of
-    /// stopping it before it starts ([`crate::torn_word`]).
+    /// stopping it before it starts ([`crate::torn_word`] where the flash
+    /// has ECC, [`crate::torn_bits`] where it has none).
     pub tear: bool,
+    /// `--tear-seed`: the seed of a torn operation's mix of bits on a
+    /// flash without ECC (else the operation's number).
+    pub tear_seed: Option<u64>,
+    /// A torn operation's mix on a flash without ECC: its address, the
+    /// bits that changed and the bits it was changing.
+    pub mixed: Option<(u32, u64, u64)>,
     /// The operation the cut fell on: its address, its length, whether
     /// an erase.
     pub cut_op: Option<(u32, u32, bool)>,

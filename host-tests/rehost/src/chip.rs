@@ -53,6 +53,10 @@ pub struct Chip {
     pub flash: (u32, u32),
     /// MPU regions (MPU_TYPE.DREGION): 8 on the F7, 16 on the H7.
     pub mpu_regions: u32,
+    /// The flash keeps an ECC with each word (the H743's 10 bits per
+    /// 256-bit word; the F767 has none): what a torn operation leaves
+    /// ([`crate::torn_word`], [`crate::torn_bits`]).
+    pub flash_ecc: bool,
     /// Memory the core's caches never hold (the TCMs).
     pub tightly_coupled: &'static [(u32, u32)],
 }
@@ -102,6 +106,7 @@ pub const STM32F767ZI: Chip = Chip {
     vtor: 0x0020_0000,
     flash: (0x0800_0000, 2048 * K),
     mpu_regions: 8,
+    flash_ecc: false,
     flash_alias: Some((0x0020_0000, 0x0800_0000, 2048 * K)),
     tightly_coupled: &[(0x0000_0000, 0x0000_4000), (0x2000_0000, 0x2002_0000)],
 };
@@ -139,6 +144,7 @@ pub const STM32H743ZI: Chip = Chip {
     vtor: 0x0800_0000,
     flash: (0x0800_0000, 2048 * K),
     mpu_regions: 16,
+    flash_ecc: true,
     flash_alias: None,
 };
 

@@ -3,6 +3,7 @@
 //! `host-tests/rehost/README.md` for what is modelled and what is not.
 
 pub mod access;
+pub mod bit_mix;
 pub mod bridge;
 pub mod bridge_phy;
 pub mod bus;
@@ -37,5 +38,6 @@ pub mod state;
 pub mod stop;
 pub mod syscfg;
 pub mod timer;
+pub mod torn_bits;
 pub mod torn_word;
 pub mod wiring;

@@ -349,8 +349,10 @@ impl Machine {
                 s.shared.flash.cut_at.unwrap_or(s.shared.flash.started),
                 s.now,
                 s.image.describe(pc),
-                match (torn.first(), torn.len()) {
-                    (Some(first), n) if s.shared.flash.tear =>
+                match (torn.first(), torn.len(), s.shared.flash.mixed) {
+                    (_, _, Some((at, changed, of))) =>
+                        format!(", tearing it: {changed} of the {of} bits it was changing from {at:#010x} changed"),
+                    (Some(first), n, _) if s.shared.flash.tear =>
                         format!(", tearing it: {n} flash words torn from {first:#010x}"),
                     _ => String::new(),
                 }

@@ -37,12 +37,6 @@ fn main() {
         ),
         (other, _) => fail(2, &format!("no board {other:?} (f767 or h743)")),
     };
-    if args.tear && args.board != "h743" {
-        fail(
-            2,
-            "--tear: the H743 only (its ECC makes a torn word read as an error; the F767's flash has no ECC, and its half-programmed bits are not modelled)",
-        );
-    }
     let elf = args.elf.unwrap_or_else(|| {
         PathBuf::from(format!(
             "target/{dir}/thumbv7em-none-eabihf/firmware/rri-sensor"
@@ -72,6 +66,7 @@ fn main() {
         let flash = &mut m.uc.get_data_mut().shared.flash;
         flash.cut_at = args.power_cut;
         flash.tear = args.tear;
+        flash.tear_seed = args.tear_seed;
         if args.flash_census.is_some() {
             flash.census = Some(Vec::new());
         }

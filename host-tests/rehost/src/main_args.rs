@@ -108,11 +108,16 @@ pub struct Args {
     /// its flash kept, and the run goes on (issue 43's power cuts).
     #[arg(long)]
     pub power_cut: Option<u64>,
-    /// The power cut tears the operation it falls on (the H743 only):
-    /// its flash words are left with a bad ECC until their sector's
-    /// erase (`torn_word`: a read of one is a double ECC error).
+    /// The power cut tears the operation it falls on. On the H743 its
+    /// flash words are left with a bad ECC until their sector's erase
+    /// (`torn_word`: a read of one is a double ECC error); on the F767,
+    /// whose flash has no ECC, each bit it was changing changed or not
+    /// (`torn_bits`: read back as that mix, with no error).
     #[arg(long, requires = "power_cut")]
     pub tear: bool,
+    /// The seed of the F767's torn mix (default: the operation's number).
+    #[arg(long, requires = "tear")]
+    pub tear_seed: Option<u64>,
     /// Write every flash operation of the run to this file, one a line:
     /// its number, `erase` or `program`, its address, its length and the
     /// PC that started it (where to aim `--power-cut`).

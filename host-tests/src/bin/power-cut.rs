@@ -32,14 +32,15 @@ struct Args {
     #[arg(long, value_enum, default_value_t = Which::H743)]
     board: Which,
     /// Cut at the first and the last operation of every run of one kind
-    /// in one partition by one program (61 cuts, about an hour), not only
+    /// in one partition by one program (61 cuts on the H743, about 16 minutes), not only
     /// at the few chosen ones.
     #[arg(long)]
     all: bool,
-    /// Each cut tears the operation it falls on (the H743 only): the
-    /// flash words it reached are left with an ECC their bits disagree
-    /// with, each read of one a double ECC error until the sector's erase.
-    /// Without it the power fails as the operation starts.
+    /// Each cut tears the operation it falls on. On the H743 the flash
+    /// words it reached are left with an ECC their bits disagree with,
+    /// each read of one a double ECC error until the sector's erase; on
+    /// the F767 (no ECC) each bit it was changing changed or not, and
+    /// reads back so. Without it the power fails as the operation starts.
     #[arg(long)]
     tear: bool,
 }

@@ -1,4 +1,5 @@
-//! A machine for the engine's own unit tests: a tiny image on the H743.
+//! A machine for the engine's own unit tests: a tiny image on the H743
+//! (or the F767).
 
 use super::Machine;
 use crate::image::{Image, Load};
@@ -19,13 +20,27 @@ pub(crate) fn flash_with(code: &[u16]) -> Vec<u8> {
 
 /// The H743 with [`flash_with`]'s first 256 bytes as its image.
 pub(crate) fn h743(code: &[u16]) -> Machine {
+    tiny(crate::chip::STM32H743ZI, crate::h7::bus, code)
+}
+
+/// The F767 (its flash in dual-bank mode) with [`flash_with`]'s first
+/// 256 bytes as its image.
+pub(crate) fn f767(code: &[u16]) -> Machine {
+    tiny(crate::chip::STM32F767ZI, crate::f7::bus_dual_bank, code)
+}
+
+fn tiny(
+    chip: crate::chip::Chip,
+    bus: fn() -> (crate::bus::Bus, crate::clocks::Clocks),
+    code: &[u16],
+) -> Machine {
     let mut image = Image::default();
     image.loads.push(Load {
         addr: 0x0800_0000,
         bytes: flash_with(code)[..0x100].to_vec(),
     });
-    let (bus, clocks) = crate::h7::bus();
-    let mut m = Machine::new(crate::chip::STM32H743ZI, image, bus, clocks).unwrap();
-    m.rebuild = Some(crate::h7::bus);
+    let (b, clocks) = bus();
+    let mut m = Machine::new(chip, image, b, clocks).unwrap();
+    m.rebuild = Some(bus);
     m
 }
