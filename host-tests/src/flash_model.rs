@@ -28,6 +28,15 @@
 //! CPU read of it is a precise bus fault (PX4-Autopilot #27642, Zephyr
 //! #33140 and embassy #4777 met it): a caller that sees the error here
 //! faults there.
+//!
+//! A flash without ECC ([`Power::mix_bits`], the F767: RM0410 has no ECC
+//! for its main flash) tells nobody: a torn operation leaves each bit it
+//! was changing changed or not (the engine's mix, `bit_mix.rs`, shared
+//! with the rehosted F767), read back as it is, and a word may be
+//! programmed again where that only clears bits (RM0410 §3.3.7).
+
+#[path = "../rehost/src/bit_mix.rs"]
+mod bit_mix;
 
 use embedded_storage::nor_flash::{
     ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
@@ -43,6 +52,8 @@ pub struct Power {
     /// The cut tears the operation it falls on rather than stopping it
     /// before it starts.
     tear: Cell<bool>,
+    /// No ECC: the seed of a torn operation's mix of bits.
+    mix: Cell<Option<u64>>,
     off: Cell<bool>,
     refused_writes: Cell<u64>,
 }
@@ -64,6 +75,14 @@ impl Power {
     /// words) rather than stopping it before it starts (the default).
     pub fn tear(&self, tear: bool) {
         self.tear.set(tear);
+    }
+
+    /// The flash has no ECC (the F767): a torn operation leaves a mix
+    /// of the bits it was changing, seeded by `seed` (a program's seed is
+    /// `seed` plus its offset in the partition, so two tears differ),
+    /// and a word may be programmed again where that only clears bits.
+    pub fn mix_bits(&self, seed: u64) {
+        self.mix.set(Some(seed));
     }
 
     /// Power back on (a reset), no cut planned.
@@ -184,6 +203,14 @@ impl<const ERASE: usize, const WRITE: usize> Flash<ERASE, WRITE> {
         self.torn.iter().any(|&t| t)
     }
 
+    /// A torn operation on a flash without ECC: the bytes at `at` a mix
+    /// of what they were and `target`.
+    fn mix(&mut self, at: usize, target: &[u8], seed: u64) {
+        let span = at..at + target.len();
+        let (bytes, _, _) = bit_mix::mix(&self.mem[span.clone()], target, seed);
+        self.mem[span].copy_from_slice(&bytes);
+    }
+
     fn check(&self, offset: u32, len: usize, align: usize) -> Result<usize, FlashError> {
         let start = offset as usize;
         if !start.is_multiple_of(align) || !len.is_multiple_of(align) {
@@ -236,7 +263,10 @@ impl<const ERASE: usize, const WRITE: usize> NorFlash for Flash<ERASE, WRITE> {
             match self.power.tick() {
                 Tick::Off => return Err(FlashError::PowerCut),
                 Tick::Torn => {
-                    self.torn[words.clone()].fill(true);
+                    match self.power.mix.get() {
+                        Some(seed) => self.mix(sector, &[0xFF; ERASE], seed),
+                        None => self.torn[words.clone()].fill(true),
+                    }
                     self.programmed[words].fill(true);
                     return Err(FlashError::PowerCut);
                 }
@@ -256,7 +286,15 @@ impl<const ERASE: usize, const WRITE: usize> NorFlash for Flash<ERASE, WRITE> {
             if self.power.is_off() {
                 return Err(FlashError::PowerCut);
             }
-            if self.programmed[at / WRITE] {
+            let again = match self.power.mix.get() {
+                // RM0410 §3.3.7: a program may only clear bits.
+                Some(_) => self.mem[at..at + WRITE]
+                    .iter()
+                    .zip(word)
+                    .any(|(old, new)| new & !old != 0),
+                None => self.programmed[at / WRITE],
+            };
+            if again {
                 self.power
                     .refused_writes
                     .set(self.power.refused_writes.get() + 1);
@@ -265,7 +303,10 @@ impl<const ERASE: usize, const WRITE: usize> NorFlash for Flash<ERASE, WRITE> {
             match self.power.tick() {
                 Tick::Off => return Err(FlashError::PowerCut),
                 Tick::Torn => {
-                    self.torn[at / WRITE] = true;
+                    match self.power.mix.get() {
+                        Some(seed) => self.mix(at, word, seed.wrapping_add(at as u64)),
+                        None => self.torn[at / WRITE] = true,
+                    }
                     self.programmed[at / WRITE] = true;
                     return Err(FlashError::PowerCut);
                 }
@@ -366,5 +407,35 @@ mod tests {
         assert_eq!(f.write(0, &[0; 16]), Err(FlashError::PowerCut));
         power.restore();
         assert!(!f.has_torn());
+    }
+
+    /// Without ECC (the F767) a torn program leaves some of the bits it
+    /// was clearing cleared, a torn erase some of those it was setting
+    /// set; both read back with no error, and a word takes a second
+    /// program only where it clears bits.
+    #[test]
+    fn without_ecc_a_torn_operation_leaves_a_mix_that_reads_back() {
+        let power = Power::new();
+        power.mix_bits(5);
+        power.tear(true);
+        let mut f = F::erased(1024, &power);
+        power.cut_at(Some(0));
+        assert_eq!(f.write(16, &[0; 16]), Err(FlashError::PowerCut));
+        power.restore();
+        let mut word = [0; 16];
+        f.read(16, &mut word).unwrap();
+        assert!(word != [0; 16] && word != [0xFF; 16], "{word:x?}");
+        assert!(!f.has_torn());
+        // Cleared the rest of the way, as a redone write does.
+        assert_eq!(f.write(16, &[0; 16]), Ok(()));
+        assert_eq!(f.write(16, &[1; 16]), Err(FlashError::NotErased));
+        power.cut_at(Some(0));
+        assert_eq!(f.erase(0, 256), Err(FlashError::PowerCut));
+        power.restore();
+        let mut sector = [0; 256];
+        f.read(0, &mut sector).unwrap();
+        let erased = |b: &[u8]| b.iter().all(|&x| x == 0xFF);
+        assert!(erased(&sector[..16]), "erased before: it stays so");
+        assert!(!erased(&sector[16..32]) && sector[16..32] != [0; 16]);
     }
 }

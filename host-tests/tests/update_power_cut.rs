@@ -6,7 +6,10 @@
 //!
 //! The partitions are scaled down (2 KiB sectors, 32-byte words as on the
 //! H743) so that a cut can be tried at every one of the run's operations;
-//! the algorithm (embassy-boot's swap) and the checks are the boards'.
+//! the algorithm (embassy-boot's swap) and the checks are the boards'. A
+//! cut stops its operation before it starts, or tears it: as the H743's
+//! ECC reports a torn word (an error), or as the F767's flash, which has
+//! no ECC, leaves it (a mix of bits, read back as it is).
 
 mod update_chip;
 
@@ -167,109 +170,6 @@ fn a_signed_image_swaps_in_and_an_unconfirmed_one_is_rolled_back() {
     assert_eq!(chip.running(&a, &b), Some('A'));
 }
 
-/// What one run did before its cut.
-#[derive(Debug)]
-struct Cut {
-    /// Read through `Debug`, in every failure's message.
-    #[allow(dead_code)]
-    at: u64,
-    /// The step the power went off in.
-    step: &'static str,
-}
-
-/// The run of an update, the power cut at operation `cut` (`None`: no
-/// cut): upload, reset (the swap), the new image runs and (if
-/// `confirms`) confirms itself, reset. Returns the chip as the cut left
-/// it, and where the cut fell.
-fn run(a: &[u8], b: &[u8], cut: Option<u64>, confirms: bool) -> (Chip, Option<Cut>) {
-    run_tearing(a, b, cut, confirms, false)
-}
-
-/// [`run`], the cut tearing the operation it falls on when `tear`.
-fn run_tearing(
-    a: &[u8],
-    b: &[u8],
-    cut: Option<u64>,
-    confirms: bool,
-    tear: bool,
-) -> (Chip, Option<Cut>) {
-    let mut chip = Chip::with(a);
-    chip.power.tear(tear);
-    chip.power.cut_at(cut);
-    let off = |chip: &Chip, step| {
-        chip.power.is_off().then(|| Cut {
-            at: cut.unwrap_or(0),
-            step,
-        })
-    };
-    let up = chip.upload(b, false);
-    if let Some(c) = off(&chip, "upload") {
-        return (chip, Some(c));
-    }
-    up.expect("an upload with the power on is accepted");
-    let swap = chip.boot();
-    if let Some(c) = off(&chip, "swap") {
-        return (chip, Some(c));
-    }
-    assert_eq!(swap, Ok(State::Swap));
-    if confirms {
-        let confirmed = chip.confirm();
-        if let Some(c) = off(&chip, "confirmation") {
-            return (chip, Some(c));
-        }
-        confirmed.unwrap();
-    }
-    let next = chip.boot();
-    if let Some(c) = off(&chip, "rollback at the next reset") {
-        return (chip, Some(c));
-    }
-    next.unwrap();
-    (chip, None)
-}
-
-/// After a cut: the power comes back and the device starts, and goes on
-/// starting until an image confirms itself. Every start must prepare
-/// without an error (our bootloader halts on one) and find a whole image,
-/// A or B, in ACTIVE. A runs and confirms itself (it is the image that
-/// worked); B confirms itself only when `confirms`, otherwise the
-/// watchdog resets it. Returns the image it settled on and how many
-/// starts finished an interrupted rollback or confirmation first.
-fn recover(chip: &mut Chip, a: &[u8], b: &[u8], confirms: bool, cut: &Cut) -> (char, u32) {
-    settle(chip, a, b, confirms).unwrap_or_else(|e| panic!("{cut:?}: {e}"))
-}
-
-/// [`recover`]'s starts: `Err` says how the device failed to settle.
-fn settle(chip: &mut Chip, a: &[u8], b: &[u8], confirms: bool) -> Result<(char, u32), String> {
-    chip.power.restore();
-    let before = chip.recovered;
-    for _start in 0..4 {
-        if let Err(e) = chip.boot() {
-            return Err(format!("the bootloader reported {e:?}"));
-        }
-        let errors = chip.recovered - before;
-        if chip.active.has_torn() {
-            return Err("ACTIVE holds a torn word (the image faults where it runs)".into());
-        }
-        let running = chip
-            .running(a, b)
-            .ok_or("ACTIVE holds neither image whole")?;
-        if running == 'B' && !confirms {
-            continue;
-        }
-        chip.confirm()
-            .map_err(|e| format!("{running} could not confirm itself: {e:?}"))?;
-        let after = chip.boot();
-        if after != Ok(State::Boot) {
-            return Err(format!("the start after the confirmation: {after:?}"));
-        }
-        if chip.running(a, b) != Some(running) {
-            return Err(format!("{running} did not stay"));
-        }
-        return Ok((running, errors));
-    }
-    Err("no image confirmed itself in four starts".into())
-}
-
 fn every_cut(confirms: bool) -> (u64, Vec<(&'static str, char, u32)>) {
     let a = file(0xA0, 2000, BOARD, "0.2.0", &SEED);
     let b = file(0xB0, 3000, BOARD, "0.3.0", &SEED);
@@ -325,6 +225,53 @@ fn a_power_cut_at_every_operation_of_an_unconfirmed_update_ends_on_the_old_image
     assert_eq!(tally(&outcomes, "rollback at the next reset"), (267, 0, 1));
 }
 
+/// One torn run's outcomes: (step, partition torn, what the device did).
+type TornOutcome = (&'static str, &'static str, Settled);
+
+/// Every operation of an update (confirmed or not) torn in turn, once
+/// for each of `tears`; the tally printed under `title`. Each outcome:
+/// the step, the partition an ECC tear left torn words in (none for a
+/// mix, which leaves no mark), what the device did.
+fn every_tear(confirms: bool, tears: &[Tear], title: &str) -> (u64, Vec<TornOutcome>) {
+    let a = file(0xA0, 2000, BOARD, "0.2.0", &SEED);
+    let b = file(0xB0, 3000, BOARD, "0.3.0", &SEED);
+    let total = run(&a, &b, None, confirms).0.power.ops();
+    let mut outcomes = Vec::new();
+    for n in 0..total {
+        for &tear in tears {
+            let (mut chip, cut) = run_tearing(&a, &b, Some(n), confirms, tear);
+            let cut = cut.unwrap_or_else(|| panic!("a torn cut at {n} fell in no step"));
+            let partition = if tear != Tear::Ecc {
+                ""
+            } else if chip.state.has_torn() {
+                "state"
+            } else if chip.dfu.has_torn() {
+                "update"
+            } else {
+                "active"
+            };
+            let outcome = settle(&mut chip, &a, &b, confirms)
+                .map_err(|e| format!("operation {n}, {tear:?}: {e}"));
+            outcomes.push((cut.step, partition, outcome));
+        }
+    }
+    print_tally(
+        &format!("{total} flash operations, {title}:"),
+        outcomes
+            .iter()
+            .map(|(step, partition, o)| match *partition {
+                "" => (format!("in the {step}"), o),
+                p => (format!("in the {step}, {p} partition torn"), o),
+            }),
+    );
+    (total, outcomes)
+}
+
+/// [`every_tear`] as the H743's ECC reports a torn word.
+fn every_torn_cut(confirms: bool) -> (u64, Vec<TornOutcome>) {
+    every_tear(confirms, &[Tear::Ecc], "each torn by the cut")
+}
+
 /// A cut *inside* every flash operation of a confirmed update: the
 /// operation torn, its word (or its sector, an erase) left unreadable as
 /// a half-programmed H743 flash word is (`flash_model`'s `Power::tear`).
@@ -339,54 +286,26 @@ fn a_power_cut_at_every_operation_of_an_unconfirmed_update_ends_on_the_old_image
 /// progress mark torn reads as the swap finished, which is also what a
 /// new image that never confirmed itself leaves, so the next start rolls
 /// it back: the old image, whole, and the update to be sent again.
-/// One torn run's outcomes: (step, partition torn, what the device did).
-type TornOutcome = (&'static str, &'static str, Result<(char, u32), String>);
-
-/// Every operation of an update (confirmed or not) torn in turn; the
-/// tally printed.
-fn every_torn_cut(confirms: bool) -> (u64, Vec<TornOutcome>) {
-    let a = file(0xA0, 2000, BOARD, "0.2.0", &SEED);
-    let b = file(0xB0, 3000, BOARD, "0.3.0", &SEED);
-    let total = run(&a, &b, None, confirms).0.power.ops();
-    let mut outcomes = Vec::new();
-    for n in 0..total {
-        let (mut chip, cut) = run_tearing(&a, &b, Some(n), confirms, true);
-        let cut = cut.unwrap_or_else(|| panic!("a torn cut at {n} fell in no step"));
-        let partition = if chip.state.has_torn() {
-            "state"
-        } else if chip.dfu.has_torn() {
-            "update"
-        } else {
-            "active"
-        };
-        outcomes.push((cut.step, partition, settle(&mut chip, &a, &b, confirms)));
-    }
-    let mut tally: std::collections::BTreeMap<String, u64> = Default::default();
-    for (step, partition, outcome) in &outcomes {
-        let what = match outcome {
-            Ok((image, _)) => format!("ended on {image}"),
-            Err(e) => format!("FAILED: {e}"),
-        };
-        *tally
-            .entry(format!("in the {step}, {partition} partition torn: {what}"))
-            .or_default() += 1;
-    }
-    println!("{total} flash operations, each torn by the cut:");
-    for (what, n) in &tally {
-        println!("  {what}: {n}");
-    }
-    (total, outcomes)
-}
-
 #[test]
 fn a_torn_operation_at_every_cut_of_a_confirmed_update() {
     let (total, outcomes) = every_torn_cut(true);
     assert_eq!(total, 377);
+    assert_eq!(
+        ended_on(&outcomes),
+        [(109, 1), (1, 263), (0, 3)],
+        "A and B after the upload, the swap, the confirmation"
+    );
+}
+
+/// Torn runs that ended on A and on B, after a cut in the upload, the
+/// swap and the confirmation; none may have failed.
+fn ended_on(outcomes: &[TornOutcome]) -> [(usize, usize); 3] {
     let failed: Vec<_> = outcomes.iter().filter(|o| o.2.is_err()).collect();
     assert!(
         failed.is_empty(),
-        "{} tears failed: {failed:?}",
-        failed.len()
+        "{} of {} tears failed: {failed:?}",
+        failed.len(),
+        outcomes.len()
     );
     let ended = |step: &str, image: char| {
         outcomes
@@ -394,12 +313,7 @@ fn a_torn_operation_at_every_cut_of_a_confirmed_update() {
             .filter(|o| o.0 == step && matches!(o.2, Ok((i, _)) if i == image))
             .count()
     };
-    assert_eq!((ended("upload", 'A'), ended("upload", 'B')), (109, 1));
-    assert_eq!((ended("swap", 'A'), ended("swap", 'B')), (1, 263));
-    assert_eq!(
-        (ended("confirmation", 'A'), ended("confirmation", 'B')),
-        (0, 3)
-    );
+    ["upload", "swap", "confirmation"].map(|step| (ended(step, 'A'), ended(step, 'B')))
 }
 
 /// Of the cuts in `step`: how many ended on A, on B, and the starts that
@@ -434,4 +348,75 @@ fn a_torn_operation_at_every_cut_of_an_unconfirmed_update_ends_on_the_old_image(
         .filter(|o| !matches!(o.2, Ok(('A', _))))
         .collect();
     assert!(not_a.is_empty(), "of {total}: {not_a:?}");
+}
+
+/// Torn runs' outcomes counted by where the cut fell and how the device
+/// ended, printed under `title`.
+fn print_tally<'a>(title: &str, outcomes: impl Iterator<Item = (String, &'a Settled)>) {
+    let mut tally: std::collections::BTreeMap<String, u64> = Default::default();
+    for (place, outcome) in outcomes {
+        let what = match outcome {
+            Ok((image, _)) => format!("ended on {image}"),
+            Err(e) => format!("FAILED: {e}"),
+        };
+        *tally.entry(format!("{place}: {what}")).or_default() += 1;
+    }
+    println!("{title}");
+    for (what, n) in &tally {
+        println!("  {what}: {n}");
+    }
+}
+
+/// Mixes of each operation [`every_mixed_cut`] tries.
+const MIXES: u64 = 8;
+
+/// Every operation of an update torn on a flash without ECC (the F767),
+/// [`MIXES`] times, each with another mix of the bits it was changing.
+fn every_mixed_cut(confirms: bool) -> (u64, Vec<TornOutcome>) {
+    let tears: Vec<Tear> = (0..MIXES).map(Tear::Mix).collect();
+    every_tear(
+        confirms,
+        &tears,
+        &format!("each torn {MIXES} ways (no ECC)"),
+    )
+}
+
+/// The F767's flash has no ECC: a cut inside an operation leaves a mix
+/// of the bits it was changing, which a reader cannot tell from data. In
+/// the state partition that mix is read as it is: a progress word with a
+/// byte still erased is a step not done (redone: its page copied again,
+/// the word then programmed the rest of the way, which only clears
+/// bits); a magic that is not whole is no magic (the active image
+/// boots). Every operation of a confirmed update, eight mixes each.
+#[test]
+fn a_mixed_tear_at_every_cut_of_a_confirmed_update() {
+    let (total, outcomes) = every_mixed_cut(true);
+    assert_eq!(total, 377);
+    // A as after a clean cut in the upload (B once the mark is whole);
+    // in the swap, A where the last progress mark's mix has no byte left
+    // erased (a finished swap never confirmed: rolled back), as after the
+    // H743's torn mark.
+    assert_eq!(
+        ended_on(&outcomes),
+        [(872, 8), (5, 2107), (0, 24)],
+        "A and B after the upload, the swap, the confirmation"
+    );
+}
+
+/// The same for an update that never confirms itself: every mixed tear
+/// ends on the old image.
+#[test]
+fn a_mixed_tear_at_every_cut_of_an_unconfirmed_update_ends_on_the_old_image() {
+    let (total, outcomes) = every_mixed_cut(false);
+    assert_eq!(total, 641);
+    let not_a: Vec<_> = outcomes
+        .iter()
+        .filter(|o| !matches!(o.2, Ok(('A', _))))
+        .collect();
+    assert!(
+        not_a.is_empty(),
+        "{} of {}: {not_a:?}",
+        not_a.len(),
+        outcomes.len()
+    );
 }

@@ -32,8 +32,12 @@
 //! so too, where embassy-stm32's plain loads would take a precise bus
 //! fault at every start; `cargo power-cut -- --tear` checks it on the
 //! rehosted chip, whose flash model has the ECC. The F767's flash has no
-//! ECC: a torn word there reads as some mix of its old and new bits,
-//! which neither this adapter nor the engine models.
+//! ECC: a torn word there reads as some mix of its old and new bits, with
+//! no error, so this adapter passes it through as it reads; embassy-boot's
+//! own readings hold for it (a progress word with a byte still erased is
+//! a step not done, and is redone; a magic not whole is no magic). The
+//! host's flash model (`Power::mix_bits`) and the rehosted F767 (`--tear`)
+//! tear that way.
 
 use embedded_storage::nor_flash::{
     ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,

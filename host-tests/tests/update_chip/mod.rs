@@ -9,6 +9,9 @@ use rri_update::boot::Halt;
 use rri_update::{sign, Refused, Running, Trailer, Upload, Version};
 use std::rc::Rc;
 
+mod runs;
+pub use runs::*;
+
 pub const SECTOR: usize = 2048;
 pub const WORD: usize = 32;
 pub type F = Flash<SECTOR, WORD>;
