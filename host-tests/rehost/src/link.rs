@@ -16,6 +16,11 @@ pub struct Link {
     /// The cable is in (the PHY reports the link once auto-negotiation
     /// completes).
     pub cable: bool,
+    /// The MAC's receiver is on (MACCR.RE, as the MAC model last saw it
+    /// written; off again at a reset): a frame from outside can reach the
+    /// image, so a paced run keeps to the wall clock
+    /// ([`crate::machine::pace`]).
+    pub listening: bool,
 }
 
 impl Link {

@@ -36,9 +36,9 @@ pub struct Machine {
     pub rtt: Option<crate::rtt::Rtt>,
     /// Log lines read and not yet taken by [`Machine::take_log`].
     pub log: Vec<String>,
-    /// Pace virtual time to the wall clock (outside clients); `false`:
-    /// deterministic, no wall clock at all.
-    pub paced: bool,
+    /// Virtual time and the wall clock ([`pace::Pace`]: deterministic by
+    /// default).
+    pub pace: pace::Pace,
     /// Virtual time in nanoseconds (cycles at the core clock of their
     /// time), and the cycle it was last brought up to.
     pub time_ns: u128,
@@ -46,7 +46,6 @@ pub struct Machine {
     /// Slices of 50 us instead of 1 ms (the machine's own robot: its
     /// latencies are measured at slice ends).
     pub fine_slices: bool,
-    started: std::time::Instant,
     /// The chip's peripherals at their reset values, for a system reset;
     /// `None`: a reset stops the run.
     pub rebuild: Option<fn() -> (Bus, Clocks)>,
@@ -219,11 +218,10 @@ impl Machine {
             bridge: None,
             rtt: None,
             log: Vec::new(),
-            paced: false,
+            pace: pace::Pace::default(),
             time_ns: 0,
             time_at: 0,
             fine_slices: false,
-            started: std::time::Instant::now(),
             rebuild: None,
             resets_left: 0,
             notes: Vec::new(),
@@ -314,14 +312,10 @@ impl Machine {
                 s.deadline = s.now;
             }
         }
-        if self.paced {
-            let wall = self.started.elapsed().as_nanos();
-            if self.time_ns > wall {
-                std::thread::sleep(std::time::Duration::from_nanos(
-                    ((self.time_ns - wall) as u64).min(20_000_000),
-                ));
-            }
-        }
+        let listening = self.uc.get_data().shared.link.listening;
+        self.notes
+            .extend(self.pace.listening(listening, self.time_ns));
+        self.pace.wait(self.time_ns);
     }
 
     /// The log lines read since the last call.
@@ -364,6 +358,7 @@ impl Machine {
                 self.log.extend(rtt.lines(&mut self.uc));
                 rtt.restart();
             }
+            self.restarted();
             crate::reset::power_cycle(&mut self.uc, fresh())?;
             return crate::torn_word::watch(&mut self.uc);
         }
@@ -391,9 +386,11 @@ impl Machine {
             Some(fresh) if self.resets_left > 0 => {
                 self.resets_left -= 1;
                 self.notes.push(format!(
-                    "system reset at cycle {} ({why}{after}): the core restarts, the peripherals at their reset values, the RAM kept",
-                    s.now
+                    "system reset at cycle {} ({:.3} s of the chip's time; {why}{after}): the core restarts, the peripherals at their reset values, the RAM kept",
+                    s.now,
+                    pace::secs(self.time_ns)
                 ));
+                self.restarted();
                 crate::reset::system_reset(&mut self.uc, cause, fresh())
             }
             _ => Err(format!(
@@ -405,6 +402,13 @@ impl Machine {
                 }
             )),
         }
+    }
+
+    /// After a reset: the MAC's receiver is off (the model built anew
+    /// holds its reset values; the wire keeps only what is outside).
+    fn restarted(&mut self) {
+        self.uc.get_data_mut().shared.link.listening = false;
+        self.pace.restarted();
     }
 
     /// What the machine said since the last call (resets).
@@ -480,6 +484,8 @@ impl Machine {
 
 /// `--until`: a run that ends at a function's entry.
 mod until;
+
+pub mod pace;
 
 /// A machine for the engine's own unit tests.
 #[cfg(test)]

@@ -113,7 +113,8 @@ fn main() {
             .forward_tcp(args.http, 80)
             .unwrap_or_else(|e| fail(2, &e));
         m.bridge = Some(bridge);
-        m.paced = !args.deterministic && args.robot.is_none();
+        m.pace.on = !args.deterministic && args.robot.is_none();
+        m.pace.always = args.pace_always;
         forwards = Some((robot, http, device));
     }
     if args.no_image {
@@ -166,7 +167,7 @@ fn main() {
             .unwrap_or_else(|e| fail(2, &format!("{}: {e}", gsi.display())));
         corpus = Some((inputs, device));
         m.fine_slices = true;
-        m.paced = false;
+        m.pace.on = false;
     }
     let t = std::time::Instant::now();
     let mut announced = false;

@@ -60,6 +60,13 @@ pub struct Args {
     /// wall clock, so that outside clients see the device's own timing.
     #[arg(long)]
     pub deterministic: bool,
+    /// Paced to the wall clock from the start and through every reset.
+    /// By default a paced run lets virtual time run free until the
+    /// image's first frame after each reset (a bootloader's swap, a
+    /// start-up: nothing outside sees the chip), and notes where it
+    /// starts pacing, at what time of the chip's.
+    #[arg(long, conflicts_with = "deterministic")]
+    pub pace_always: bool,
     /// Drive the device with this many robot messages in virtual time
     /// (deterministic: implies `--deterministic`), from the GSI folder
     /// `--gsi`; the run ends when the last cycle is over. After a power

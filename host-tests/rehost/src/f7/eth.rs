@@ -377,6 +377,9 @@ impl Eth {
         if let Some((_, _, what)) = UNMODELLED.iter().find(|u| u.0 == off && new & u.1 != 0) {
             return Err(format!("ETH: {what} is not modelled"));
         }
+        if off == MACCR {
+            cx.link.listening = new & RE != 0;
+        }
         match off {
             MACCR if new & !old & (TE | RE) != 0 => {
                 wired(cx, false, "enabling the MAC (MACCR TE/RE)")?;

@@ -113,6 +113,9 @@ impl Bench {
 #[test]
 fn a_frame_lands_in_an_owned_descriptor() {
     let mut b = Bench::started(true);
+    // MACCR.RE on: the wire says the MAC listens (the engine paces from
+    // here, `machine/pace.rs`).
+    assert!(b.1.link.listening);
     let mut frame: Vec<u8> = [[0xFF; 6], [2, 0, 0, 0, 0, 1]].concat();
     frame.extend([0x08, 0x06]);
     frame.resize(60, 0xA5);

@@ -325,6 +325,7 @@ impl Eth {
         if rising & TE != 0 {
             self.transmit(cx)?;
         }
+        cx.link.listening = new & RE != 0;
         Ok(())
     }
 

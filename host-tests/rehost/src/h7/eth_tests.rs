@@ -173,7 +173,11 @@ fn the_fcs_is_ieee_802_3_crc_32() {
 #[test]
 fn a_frame_lands_in_an_owned_descriptor_before_the_tail() {
     let mut rig = Rig::new();
+    assert!(!rig.shared.link.listening);
     rig.start(RX_RING + 3 * 16);
+    // MACCR.RE on: the wire says the MAC listens (the engine paces from
+    // here, `machine/pace.rs`).
+    assert!(rig.shared.link.listening);
     let frame = arp_request();
     rig.shared.link.to_device.push_back(frame.clone());
     rig.wait(US);
