@@ -61,10 +61,10 @@ pub struct Args {
     #[arg(long)]
     pub deterministic: bool,
     /// Paced to the wall clock from the start and through every reset.
-    /// By default a paced run lets virtual time run free until the
-    /// image's first frame after each reset (a bootloader's swap, a
-    /// start-up: nothing outside sees the chip), and notes where it
-    /// starts pacing, at what time of the chip's.
+    /// By default a paced run lets virtual time run free from each reset
+    /// until the image turns its MAC's receiver on (MACCR.RE: before it
+    /// no frame can reach the chip; a bootloader's swap, a start-up), and
+    /// notes where pacing starts, at what time of the chip's.
     #[arg(long, conflicts_with = "deterministic")]
     pub pace_always: bool,
     /// Drive the device with this many robot messages in virtual time
