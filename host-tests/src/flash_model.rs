@@ -35,9 +35,6 @@
 //! with the rehosted F767), read back as it is, and a word may be
 //! programmed again where that only clears bits (RM0410 §3.3.7).
 
-#[path = "../rehost/src/bit_mix.rs"]
-mod bit_mix;
-
 use embedded_storage::nor_flash::{
     ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
 };
@@ -207,7 +204,7 @@ impl<const ERASE: usize, const WRITE: usize> Flash<ERASE, WRITE> {
     /// of what they were and `target`.
     fn mix(&mut self, at: usize, target: &[u8], seed: u64) {
         let span = at..at + target.len();
-        let (bytes, _, _) = bit_mix::mix(&self.mem[span.clone()], target, seed);
+        let (bytes, _, _) = crate::bit_mix::mix(&self.mem[span.clone()], target, seed);
         self.mem[span].copy_from_slice(&bytes);
     }
 

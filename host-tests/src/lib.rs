@@ -16,6 +16,7 @@ pub mod layouts {
 use critical_section as _;
 
 pub mod attack;
+pub mod bit_mix;
 pub mod board_map;
 pub mod boards;
 pub mod browser;

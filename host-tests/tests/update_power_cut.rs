@@ -419,4 +419,44 @@ fn a_mixed_tear_at_every_cut_of_an_unconfirmed_update_ends_on_the_old_image() {
         not_a.len(),
         outcomes.len()
     );
+    let in_step = |step: &str| outcomes.iter().filter(|o| o.0 == step).count();
+    assert_eq!(
+        ["upload", "swap", "rollback at the next reset"].map(in_step),
+        [880, 2112, 2136]
+    );
+}
+
+/// The limit no model above reaches (rri-update's README, "What no mix
+/// here reaches"): the confirmation's erase torn *word by word*, so that
+/// the swap magic keeps every zero bit while "progress invalid" and the
+/// progress marks from `kept` on are erased. embassy-boot then reads a
+/// swap in progress and swaps again: with 0 or 1 of the 4 marks kept,
+/// ACTIVE ends holding neither image. Asserted as it is so that the
+/// README's account stays true: a change that survives this state fails
+/// here, and the README changes with it.
+#[test]
+fn an_erase_torn_word_by_word_is_read_as_a_swap_to_do_again() {
+    use embedded_storage::nor_flash::NorFlash;
+    let a = file(0xA0, 2000, BOARD, "0.2.0", &SEED);
+    let b = file(0xB0, 3000, BOARD, "0.3.0", &SEED);
+    let marks = 2 * ACTIVE / SECTOR;
+    let settled: Vec<Option<char>> = (0..marks)
+        .map(|kept| {
+            let mut chip = Chip::with(&a);
+            chip.upload(&b, false).unwrap();
+            assert_eq!(chip.boot(), Ok(State::Swap));
+            assert_eq!(chip.running(&a, &b), Some('B'));
+            // What the torn erase leaves: the magic (32 bytes of 0xF0)
+            // whole, the marks before `kept`, nothing else.
+            chip.state.erase(0, STATE as u32).unwrap();
+            chip.state.write(0, &[0xF0; WORD]).unwrap();
+            for i in 0..kept {
+                chip.state
+                    .write(((2 + i) * WORD) as u32, &[0; WORD])
+                    .unwrap();
+            }
+            settle(&mut chip, &a, &b, true).ok().map(|(image, _)| image)
+        })
+        .collect();
+    assert_eq!(settled, [None, None, Some('B'), Some('B')]);
 }

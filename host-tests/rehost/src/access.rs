@@ -81,6 +81,9 @@ fn settle(uc: &mut Unicorn<State>) {
     }
     let mut writes = std::mem::take(&mut s.shared.program);
     let stall = std::mem::take(&mut s.shared.stall);
+    // A torn program's own bytes (`None` for an erase), on a flash
+    // without ECC: mixed once the rest is in the array.
+    let mut torn = None;
     if s.shared.flash.cut {
         // The power fails as the operation starts: nothing of it gets to
         // the array, nor anything after it; what ended before it in the
@@ -99,31 +102,42 @@ fn settle(uc: &mut Unicorn<State>) {
         let mixed = tear && !ecc;
         s.deadline = s.now;
         if mixed {
-            let own = writes.get(kept).map(|(_, bytes)| bytes.clone());
+            torn = Some(writes.get(kept).map(|(_, bytes)| bytes.clone()));
             writes.truncate(kept);
-            writes.extend(crate::torn_bits::tear(uc, own));
         } else {
             writes.truncate(kept + usize::from(own));
         }
     } else {
         s.now += stall;
     }
-    let alias = uc.get_data().chip.flash_alias;
     for (addr, bytes) in writes {
-        let _ = uc.mem_write(u64::from(addr), &bytes);
-        let len = bytes.len() as u64;
-        let s = uc.get_data_mut();
-        s.code_changed
-            .push((u64::from(addr), u64::from(addr) + len));
-        // The hooks follow the new code before the core runs on (a swap
-        // writes the image the bootloader then jumps to).
-        s.deadline = s.now;
-        if let Some((alias, flash, size)) = alias {
-            if addr >= flash && addr - flash < size {
-                let at = u64::from(addr - flash + alias);
-                let _ = uc.mem_write(at, &bytes);
-                uc.get_data_mut().code_changed.push((at, at + len));
-            }
+        to_array(uc, addr, &bytes);
+    }
+    // The mix is made over what the array holds once the operations
+    // before it in the access have reached it (an erase that ended just
+    // before the cut program, say).
+    if let Some((addr, bytes)) = torn.and_then(|own| crate::torn_bits::tear(uc, own)) {
+        to_array(uc, addr, &bytes);
+    }
+}
+
+/// `bytes` written into the flash array at `addr` (and the F7's ITCM
+/// alias, which shows the same array); the instruction hooks follow.
+fn to_array(uc: &mut Unicorn<State>, addr: u32, bytes: &[u8]) {
+    let alias = uc.get_data().chip.flash_alias;
+    let _ = uc.mem_write(u64::from(addr), bytes);
+    let len = bytes.len() as u64;
+    let s = uc.get_data_mut();
+    s.code_changed
+        .push((u64::from(addr), u64::from(addr) + len));
+    // The hooks follow the new code before the core runs on (a swap
+    // writes the image the bootloader then jumps to).
+    s.deadline = s.now;
+    if let Some((alias, flash, size)) = alias {
+        if addr >= flash && addr - flash < size {
+            let at = u64::from(addr - flash + alias);
+            let _ = uc.mem_write(at, bytes);
+            uc.get_data_mut().code_changed.push((at, at + len));
         }
     }
 }

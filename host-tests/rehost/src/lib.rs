@@ -3,6 +3,9 @@
 //! `host-tests/rehost/README.md` for what is modelled and what is not.
 
 pub mod access;
+/// The torn mix, shared with the host's flash model (whose crate holds
+/// the file: see its header).
+#[path = "../../src/bit_mix.rs"]
 pub mod bit_mix;
 pub mod bridge;
 pub mod bridge_phy;

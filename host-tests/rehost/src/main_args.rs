@@ -65,7 +65,7 @@ pub struct Args {
     /// until the image turns its MAC's receiver on (MACCR.RE: before it
     /// no frame can reach the chip; a bootloader's swap, a start-up), and
     /// notes where pacing starts, at what time of the chip's.
-    #[arg(long, conflicts_with = "deterministic")]
+    #[arg(long, conflicts_with_all = ["deterministic", "robot"])]
     pub pace_always: bool,
     /// Drive the device with this many robot messages in virtual time
     /// (deterministic: implies `--deterministic`), from the GSI folder
@@ -122,7 +122,8 @@ pub struct Args {
     /// (`torn_bits`: read back as that mix, with no error).
     #[arg(long, requires = "power_cut")]
     pub tear: bool,
-    /// The seed of the F767's torn mix (default: the operation's number).
+    /// The seed of the F767's torn mix (default: the operation's number;
+    /// the H743's torn words take none).
     #[arg(long, requires = "tear")]
     pub tear_seed: Option<u64>,
     /// Write every flash operation of the run to this file, one a line:

@@ -1,4 +1,5 @@
-//! A flash operation torn by a power cut (`--tear`, the H743 only).
+//! A flash operation torn by a power cut (`--tear`) on a flash with ECC
+//! (the H743; the F767's, without, is [`crate::torn_bits`]).
 //!
 //! A cut falls inside an operation, not between two. On the H743 every
 //! 256-bit flash word carries 10 ECC bits, written with it (RM0433, the

@@ -396,6 +396,7 @@ impl Eth {
                 // Every register back to reset, the DMA idle; SR clears
                 // once the clock domains saw it. The PHY keeps its state.
                 self.regs = Regs::new(TABLE);
+                cx.link.listening = false;
                 (self.mdio, self.tx_open, self.cur) = (None, None, [0; 4]);
                 let due = cx.now + micros(cx, RESET_US);
                 self.reset_due = cx.link.ref_clock.then_some(due);

@@ -229,3 +229,13 @@ fn a_pin_moved_off_af11_after_the_start_refuses_the_next_frame() {
     );
     assert!(b.1.link.from_device.is_empty());
 }
+
+/// DMABMR.SR puts every register back to reset, MACCR.RE with them: the
+/// wire no longer says the MAC listens (the engine's pacing).
+#[test]
+fn a_software_reset_turns_the_receiver_off() {
+    let mut b = Bench::started(true);
+    assert!(b.1.link.listening);
+    b.wr(T0 + 3000, DMABMR, BMR_SR).unwrap();
+    assert!(!b.1.link.listening);
+}

@@ -297,6 +297,7 @@ impl Eth {
     /// runs (the MAC's clock domains need it: RM0433 §58.11.2, ETH_DMAMR).
     fn software_reset(&mut self, cx: &mut Cx) {
         self.regs = Regs::new(TABLE);
+        cx.link.listening = false;
         self.regs.set(DMAMR, SWR);
         self.mdio = None;
         self.tx_frame = None;

@@ -308,3 +308,14 @@ fn a_pin_moved_off_af11_after_the_start_refuses_the_next_frame() {
     );
     assert!(rig.shared.link.from_device.is_empty());
 }
+
+/// DMAMR.SWR puts every register back to reset, MACCR.RE with them: the
+/// wire no longer says the MAC listens (the engine's pacing).
+#[test]
+fn a_software_reset_turns_the_receiver_off() {
+    let mut rig = Rig::new();
+    rig.start(RX_RING + 3 * 16);
+    assert!(rig.shared.link.listening);
+    rig.write(DMAMR, SWR);
+    assert!(!rig.shared.link.listening);
+}

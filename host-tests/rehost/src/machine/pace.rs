@@ -53,7 +53,7 @@ impl Pace {
         self.heard = true;
         (self.on && !self.always).then(|| {
             format!(
-                "the image's MAC receives, at {:.3} s of the chip's time since power-on: paced to the wall clock from here ({:.1} s run ahead of it since the last start, while no frame could reach the chip)",
+                "the image's MAC receives, at {:.3} s of the chip's time (since the run began): paced to the wall clock from here ({:.1} s run ahead of it since the last start, while no frame could reach the chip)",
                 secs(time_ns),
                 secs(self.lead_ns - self.lead_at_reset)
             )
@@ -63,16 +63,25 @@ impl Pace {
     /// Virtual time is at `time_ns`: wait for the wall clock to catch up
     /// (at most 20 ms at once), or, free, take the lead.
     pub fn wait(&mut self, time_ns: u128) {
-        if !self.on {
-            return;
+        if let Some(d) = self.due(time_ns, self.started.elapsed().as_nanos()) {
+            std::thread::sleep(d);
         }
-        let wall = self.started.elapsed().as_nanos() + self.lead_ns;
+    }
+
+    /// [`Pace::wait`]'s decision, `elapsed_ns` of the wall clock since
+    /// the run began: how long to sleep, if at all. Free, the lead is
+    /// taken instead.
+    fn due(&mut self, time_ns: u128, elapsed_ns: u128) -> Option<Duration> {
+        if !self.on {
+            return None;
+        }
+        let wall = elapsed_ns + self.lead_ns;
         if !self.heard && !self.always {
             self.lead_ns += time_ns.saturating_sub(wall);
-        } else if time_ns > wall {
-            std::thread::sleep(Duration::from_nanos(
-                ((time_ns - wall) as u64).min(20_000_000),
-            ));
+            None
+        } else {
+            (time_ns > wall)
+                .then(|| Duration::from_nanos(((time_ns - wall) as u64).min(20_000_000)))
         }
     }
 
@@ -80,11 +89,6 @@ impl Pace {
     pub fn restarted(&mut self) {
         self.heard = false;
         self.lead_at_reset = self.lead_ns;
-    }
-
-    /// Virtual time gained on the wall clock while free, over the run.
-    pub fn lead(&self) -> Duration {
-        Duration::from_nanos(self.lead_ns as u64)
     }
 }
 
@@ -97,51 +101,69 @@ pub fn secs(ns: u128) -> f64 {
 mod tests {
     use super::*;
 
+    const S: u128 = 1_000_000_000;
+    const MS: u128 = 1_000_000;
+
     /// Free while the receiver is off: ten virtual seconds at once cost
-    /// no wait, and are not waited for once paced; after a reset free
-    /// again.
+    /// no wait, and are not waited for once paced (the wall clock is
+    /// given, not read); after a reset free again.
     #[test]
     fn free_until_the_receiver_is_on_then_paced_and_free_again_after_a_reset() {
         let mut p = Pace {
             on: true,
             ..Pace::default()
         };
-        p.wait(10_000_000_000);
-        assert!(p.lead() >= Duration::from_millis(9_900));
-        assert_eq!(p.listening(false, 10_000_000_000), None);
-        let note = p
-            .listening(true, 10_000_000_000)
-            .expect("a note as it comes on");
+        assert_eq!(p.due(10 * S, MS), None, "free: no wait");
+        assert_eq!(p.lead_ns, 10 * S - MS);
+        assert_eq!(p.listening(false, 10 * S), None);
+        let note = p.listening(true, 10 * S).expect("a note as it comes on");
         assert!(note.contains("at 10.000 s of the chip's time"), "{note}");
-        assert_eq!(p.listening(true, 10_000_000_000), None, "once");
-        // Paced now: 50 ms of virtual time past the wall clock are waited
-        // for (as the machine calls it, once a slice), the lead is not.
-        let t = Instant::now();
-        let target = p.started.elapsed().as_nanos() + p.lead_ns + 50_000_000;
-        while p.started.elapsed().as_nanos() + p.lead_ns < target {
-            p.wait(target);
-        }
-        let waited = t.elapsed();
-        assert!(waited >= Duration::from_millis(45), "{waited:?}");
-        assert!(
-            waited < Duration::from_secs(2),
-            "{waited:?}: the lead was waited for"
+        assert!(note.contains("10.0 s run ahead"), "{note}");
+        assert_eq!(p.listening(true, 10 * S), None, "once");
+        // Paced: 5 ms of virtual time past wall clock and lead is waited
+        // for; the lead itself is not.
+        assert_eq!(
+            p.due(10 * S + 5 * MS, 2 * MS),
+            Some(Duration::from_millis(4))
         );
+        assert_eq!(p.due(10 * S, 2 * MS), None);
+        // At most 20 ms at once.
+        assert_eq!(p.due(11 * S, MS), Some(Duration::from_millis(20)));
+        assert_eq!(p.lead_ns, 10 * S - MS, "no lead taken while paced");
         p.restarted();
-        let lead = p.lead();
-        p.wait(30_000_000_000);
+        assert_eq!(p.due(30 * S, 3 * MS), None, "free after the reset");
+        assert_eq!(p.lead_ns, 30 * S - 3 * MS);
+        let note = p.listening(true, 30 * S).unwrap();
         assert!(
-            p.lead() > lead + Duration::from_secs(19),
-            "free after the reset"
+            note.contains("20.0 s run ahead of it since the last start"),
+            "{note}"
         );
-        // Always paced: no lead, ever.
+        // Always paced: no lead, ever, and no note.
         let mut always = Pace {
             on: true,
             always: true,
             ..Pace::default()
         };
-        always.wait(1_000_000);
-        assert_eq!(always.lead(), Duration::ZERO);
+        assert_eq!(always.due(S, 0), Some(Duration::from_millis(20)));
+        assert_eq!(always.lead_ns, 0);
         assert_eq!(always.listening(true, 1), None, "no note: paced all along");
+        // Not paced at all (deterministic): never a wait.
+        let mut off = Pace::default();
+        assert_eq!(off.due(S, 0), None);
+    }
+
+    /// A system reset turns the MAC's receiver off, as far as the wire
+    /// and the pacing know (the MAC model itself is built anew).
+    #[test]
+    fn a_reset_turns_the_receiver_off() {
+        let mut m = crate::machine::testing::h743(&[]);
+        m.resets_left = 1;
+        m.pace.on = true;
+        m.uc.get_data_mut().shared.link.listening = true;
+        assert!(m.pace.listening(true, 0).is_some());
+        m.uc.get_data_mut().scs.reset_requested = true;
+        m.take_reset().unwrap();
+        assert!(!m.uc.get_data().shared.link.listening);
+        assert!(!m.pace.heard, "free again until the image's MAC receives");
     }
 }

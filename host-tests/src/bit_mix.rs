@@ -1,8 +1,8 @@
 //! The bits a torn flash operation reached, on a flash without ECC: one
-//! seeded mix, shared by the rehosting engine's F767 (`torn_bits.rs`)
-//! and the host's flash model (`host_tests::flash_model`, which includes
-//! this file), so both tear alike. No dependency: a model must stand on
-//! its own.
+//! seeded mix, shared by the host's flash model (`flash_model.rs`) and
+//! the rehosting engine's F767 (`rehost/src/torn_bits.rs`, which includes
+//! this file by path: the engine is GPL-2.0 for unicorn, this crate MIT
+//! or Apache-2.0, so the shared file lives here), so both tear alike.
 
 /// The bytes a torn operation leaves: each bit where `old` and `target`
 /// (what the operation was making of them) differ takes `target`'s value
